@@ -1,0 +1,210 @@
+//! Why a blob was refused: one variant per check, each naming what it read.
+
+use core::fmt;
+
+/// A blob that [`crate::TriangleTree::from_bytes`] (or a point tree's
+/// loader) refused, with what was wrong and where.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum BlobError {
+    /// The input does not start at a 4-byte aligned address.
+    Misaligned {
+        /// The address modulo 4.
+        offset: usize,
+    },
+    /// The input ends before the named part does.
+    Truncated {
+        /// The part being read ("header", "nodes", "triangles", ...).
+        what: &'static str,
+        /// Bytes that part needs, counted from the start of the blob.
+        need: usize,
+        /// Bytes there are.
+        have: usize,
+    },
+    /// The input is longer than its sections.
+    TrailingBytes {
+        /// Bytes the header's counts account for.
+        expected: usize,
+        /// Bytes there are.
+        have: usize,
+    },
+    /// The first 8 bytes are not `kdray` and three zero bytes.
+    BadMagic,
+    /// The endianness check word is not `0xFEFF` (a big-endian writer, or
+    /// not a kdray blob).
+    BadEndianness {
+        /// The word read.
+        found: u32,
+    },
+    /// A format version this kernel cannot read.
+    UnsupportedVersion {
+        /// The version read.
+        found: u32,
+    },
+    /// The blob holds another kind of tree.
+    WrongKind {
+        /// The kind this loader reads (1 triangles, 2 points).
+        expected: u32,
+        /// The kind read.
+        found: u32,
+    },
+    /// A header field that must have a fixed value does not.
+    BadHeaderField {
+        /// The field's name.
+        what: &'static str,
+        /// The value read.
+        found: u32,
+    },
+    /// A count times its record size overflows the address space.
+    Overflow {
+        /// The section whose size overflowed.
+        what: &'static str,
+    },
+    /// The checksum over the sections does not match the header's.
+    Checksum {
+        /// The checksum stored in the header.
+        stored: u32,
+        /// The checksum of the bytes.
+        computed: u32,
+    },
+    /// The tree has no nodes (even an empty tree has its root leaf).
+    NoNodes,
+    /// The scene bounds are non-finite or inverted.
+    BadBounds,
+    /// An item (triangle vertex or point) lies outside the scene bounds or
+    /// is not finite.
+    ItemOutsideBounds {
+        /// The item's index.
+        item: u32,
+    },
+    /// An interior node's split location is NaN or infinite.
+    NonFiniteSplit {
+        /// The node's index.
+        node: u32,
+    },
+    /// An interior node's children are not where a depth-first layout puts
+    /// them: out of range, not after the parent, or shared with another
+    /// parent (which could make cycles or exponential walks).
+    BadChild {
+        /// The node's index.
+        node: u32,
+        /// The child index read.
+        child: u32,
+        /// The child index the layout requires.
+        expected: u32,
+    },
+    /// Nodes the walk from the root never reaches.
+    UnreachableNodes {
+        /// Nodes reached.
+        reached: u32,
+        /// Nodes in the blob.
+        total: u32,
+    },
+    /// A leaf's primitive run lies outside the primitive-index array.
+    LeafRangeOutOfBounds {
+        /// The leaf's index.
+        node: u32,
+        /// The run's offset.
+        offset: u32,
+        /// The run's length.
+        count: u32,
+    },
+    /// A primitive index names no item.
+    PrimitiveOutOfRange {
+        /// Where the index was found: a node index for one-primitive
+        /// leaves, otherwise the position in the primitive-index array.
+        at: u32,
+        /// The index read.
+        prim: u32,
+    },
+    /// The tree is deeper than the traversal stack (or than the header says).
+    TooDeep {
+        /// The node found too deep.
+        node: u32,
+        /// Its depth.
+        depth: u32,
+        /// The limit.
+        max: u32,
+    },
+}
+
+impl fmt::Display for BlobError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use BlobError::*;
+        match *self {
+            Misaligned { offset } => write!(
+                f,
+                "blob is not 4-byte aligned (address % 4 = {offset}); load it into aligned memory, e.g. with kdray_kernel::include_aligned!"
+            ),
+            Truncated { what, need, have } => {
+                write!(f, "blob truncated in the {what}: needs {need} bytes, has {have}")
+            }
+            TrailingBytes { expected, have } => write!(
+                f,
+                "blob has {} bytes after its last section ({have} bytes, sections end at {expected})",
+                have - expected
+            ),
+            BadMagic => write!(f, "not a kdray blob: bad magic (expected \"kdray\\0\\0\\0\")"),
+            BadEndianness { found } => write!(
+                f,
+                "blob endianness check word is {found:#x}, expected 0xfeff (big-endian or corrupt)"
+            ),
+            UnsupportedVersion { found } => {
+                write!(f, "blob format version {found} is not supported (this kernel reads 1)")
+            }
+            WrongKind { expected, found } => write!(
+                f,
+                "blob holds tree kind {found} ({}), expected kind {expected} ({})",
+                kind_name(found),
+                kind_name(expected)
+            ),
+            BadHeaderField { what, found } => {
+                write!(f, "blob header field {what} has invalid value {found}")
+            }
+            Overflow { what } => write!(f, "blob {what} section size overflows"),
+            Checksum { stored, computed } => write!(
+                f,
+                "blob checksum mismatch: header says {stored:#010x}, bytes give {computed:#010x} (corrupt)"
+            ),
+            NoNodes => write!(f, "blob has no nodes (even an empty tree has a root leaf)"),
+            BadBounds => write!(f, "blob scene bounds are not finite or are inverted"),
+            ItemOutsideBounds { item } => {
+                write!(f, "item {item} is non-finite or lies outside the scene bounds")
+            }
+            NonFiniteSplit { node } => write!(f, "node {node} has a non-finite split location"),
+            BadChild { node, child, expected } => write!(
+                f,
+                "node {node} names children at {child}, but the depth-first layout puts them at {expected}"
+            ),
+            UnreachableNodes { reached, total } => write!(
+                f,
+                "only {reached} of {total} nodes are reachable from the root"
+            ),
+            LeafRangeOutOfBounds { node, offset, count } => write!(
+                f,
+                "leaf {node} names primitives {offset}..{offset}+{count}, outside the primitive-index array"
+            ),
+            PrimitiveOutOfRange { at, prim } => {
+                write!(f, "primitive index {prim} at {at} names no item")
+            }
+            TooDeep { node, depth, max } => write!(
+                f,
+                "node {node} is at depth {depth}, deeper than the limit {max}"
+            ),
+        }
+    }
+}
+
+fn kind_name(kind: u32) -> &'static str {
+    match kind {
+        1 => "triangles",
+        2 => "points",
+        _ => "unknown",
+    }
+}
+
+#[cfg(feature = "std")]
+extern crate std;
+
+#[cfg(feature = "std")]
+impl std::error::Error for BlobError {}

@@ -1,0 +1,293 @@
+//! The watertight ray/triangle test of Woop, Benthin and Wald, "Watertight
+//! Ray/Triangle Intersection", JCGT 2(1), 2013.
+//!
+//! The ray is transformed once ([`ShearedRay::new`]) so that it runs along
+//! +z from the origin; each triangle is then projected with the same shear
+//! and tested by the signs of three 2-D edge functions. Two triangles that
+//! share an edge compute that edge's function from the same two projected
+//! vertices, bit for bit, so a ray through the edge (or a shared vertex)
+//! sees it from both sides and cannot slip between them. When an edge
+//! function rounds to exactly zero it is recomputed in `f64`, as the paper
+//! prescribes, so its sign is exact.
+//!
+//! This single function defines every answer kdray gives: the tree, the
+//! packets and the brute-force oracle all call it (or its lane-wise twin,
+//! which performs the same operations in the same order).
+
+use crate::ray::{Hit, Ray};
+use bytemuck::{Pod, Zeroable};
+
+/// A triangle: three vertices. `repr(C)`, Pod, 36 bytes; the blob stores
+/// triangles in this layout, in mesh order.
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+#[repr(C)]
+pub struct Triangle {
+    /// Vertices 0, 1, 2.
+    pub v: [[f32; 3]; 3],
+}
+
+const _: () = assert!(core::mem::size_of::<Triangle>() == 36);
+
+impl Triangle {
+    /// Are all nine coordinates finite?
+    #[inline]
+    #[must_use]
+    pub fn is_finite(&self) -> bool {
+        self.v.iter().flatten().all(|c| c.is_finite())
+    }
+}
+
+/// A ray prepared for the watertight test: its origin, the axis permutation
+/// that makes z the dominant direction axis, and the shear constants.
+#[derive(Clone, Copy, Debug)]
+pub struct ShearedRay {
+    /// The ray origin.
+    pub(crate) org: [f32; 3],
+    /// The permuted axes `[kx, ky, kz]`; `kz` is the dominant axis of the
+    /// direction, and `kx, ky` are swapped when `dir[kz] < 0` to keep the
+    /// winding of the projected triangle.
+    pub(crate) k: [usize; 3],
+    /// Shear constants `[dir[kx]/dir[kz], dir[ky]/dir[kz], 1/dir[kz]]`.
+    pub(crate) s: [f32; 3],
+}
+
+/// A hit of one triangle before the barycentrics are divided out: only the
+/// winner of a closest-hit search pays for those two divisions.
+#[derive(Clone, Copy, Debug)]
+pub struct TriangleHit {
+    /// Ray parameter of the hit.
+    pub t: f32,
+    /// Edge function weighting vertex 1.
+    v: f32,
+    /// Edge function weighting vertex 2.
+    w: f32,
+    /// Sum of the three edge functions.
+    det: f32,
+}
+
+impl TriangleHit {
+    /// The hit record of triangle `prim`.
+    #[inline]
+    #[must_use]
+    pub fn to_hit(self, prim: u32) -> Hit {
+        Hit {
+            t: self.t,
+            prim,
+            u: self.v / self.det,
+            v: self.w / self.det,
+        }
+    }
+}
+
+/// Does `ray` describe a non-empty interval along a real direction?
+/// Rays that fail this hit nothing (the documented NaN policy).
+#[inline]
+#[must_use]
+pub fn ray_is_valid(ray: &Ray) -> bool {
+    ray.origin.iter().all(|c| c.is_finite())
+        && ray.dir.iter().all(|c| c.is_finite())
+        && ray.dir.iter().any(|&c| c != 0.0)
+        && ray.tmin <= ray.tmax
+}
+
+/// The index of the largest `|dir|` component; ties go to the lower axis.
+#[inline]
+fn dominant_axis(dir: [f32; 3]) -> usize {
+    let a = [dir[0].abs(), dir[1].abs(), dir[2].abs()];
+    if a[0] >= a[1] && a[0] >= a[2] {
+        0
+    } else if a[1] >= a[2] {
+        1
+    } else {
+        2
+    }
+}
+
+impl ShearedRay {
+    /// Prepares `ray`, or `None` for a ray that hits nothing by
+    /// [`ray_is_valid`].
+    #[inline]
+    #[must_use]
+    pub fn new(ray: &Ray) -> Option<ShearedRay> {
+        if !ray_is_valid(ray) {
+            return None;
+        }
+        let d = ray.dir;
+        let kz = dominant_axis(d);
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if d[kz] < 0.0 {
+            core::mem::swap(&mut kx, &mut ky);
+        }
+        Some(ShearedRay {
+            org: ray.origin,
+            k: [kx, ky, kz],
+            s: [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]],
+        })
+    }
+
+    /// The watertight test of `tri` against this ray over `[tmin, tmax]`.
+    #[inline(always)]
+    #[must_use]
+    pub fn intersect(&self, tri: &Triangle, tmin: f32, tmax: f32) -> Option<TriangleHit> {
+        let [kx, ky, kz] = self.k;
+        let [sx, sy, sz] = self.s;
+        // Vertices relative to the origin, then sheared so the ray is +z.
+        let rel = |p: [f32; 3]| {
+            let q = [p[0] - self.org[0], p[1] - self.org[1], p[2] - self.org[2]];
+            (q[kx] - sx * q[kz], q[ky] - sy * q[kz], q[kz])
+        };
+        let (ax, ay, az) = rel(tri.v[0]);
+        let (bx, by, bz) = rel(tri.v[1]);
+        let (cx, cy, cz) = rel(tri.v[2]);
+        // 2-D edge functions: u weighs vertex 0, v vertex 1, w vertex 2.
+        let mut u = cx * by - cy * bx;
+        let mut v = ax * cy - ay * cx;
+        let mut w = bx * ay - by * ax;
+        if u == 0.0 || v == 0.0 || w == 0.0 {
+            [u, v, w] = edge_functions_f64([ax, ay, bx, by, cx, cy]);
+        }
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + v + w;
+        if det == 0.0 {
+            return None;
+        }
+        let t_scaled = u * (sz * az) + v * (sz * bz) + w * (sz * cz);
+        let t = t_scaled / det;
+        if t >= tmin && t <= tmax {
+            Some(TriangleHit { t, v, w, det })
+        } else {
+            None
+        }
+    }
+}
+
+/// The three edge functions in `f64`, rounded back: exact signs where the
+/// `f32` products cancelled to zero. Inputs: `[ax, ay, bx, by, cx, cy]`.
+#[inline(never)]
+#[cold]
+#[must_use]
+pub fn edge_functions_f64(p: [f32; 6]) -> [f32; 3] {
+    let [ax, ay, bx, by, cx, cy] = p.map(f64::from);
+    [
+        (cx * by - cy * bx) as f32,
+        (ax * cy - ay * cx) as f32,
+        (bx * ay - by * ax) as f32,
+    ]
+}
+
+/// The brute-force answer: the closest hit of `ray` over all of
+/// `triangles`, by the same test and the same order as the tree.
+/// The oracle every traversal is held to.
+#[must_use]
+pub fn closest_hit_brute(triangles: &[Triangle], ray: &Ray) -> Hit {
+    let Some(sr) = ShearedRay::new(ray) else {
+        return Hit::MISS;
+    };
+    let mut best = crate::traverse::Closest::new(ray.tmax);
+    for (i, tri) in triangles.iter().enumerate() {
+        best.offer(&sr, tri, i as u32, ray.tmin);
+    }
+    best.hit()
+}
+
+/// The brute-force any-hit answer: does any triangle hit `ray` in
+/// `[tmin, tmax]`?
+#[must_use]
+pub fn any_hit_brute(triangles: &[Triangle], ray: &Ray) -> bool {
+    ShearedRay::new(ray).is_some_and(|sr| {
+        triangles
+            .iter()
+            .any(|tri| sr.intersect(tri, ray.tmin, ray.tmax).is_some())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tri(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> Triangle {
+        Triangle { v: [a, b, c] }
+    }
+
+    fn ray(o: [f32; 3], d: [f32; 3]) -> Ray {
+        Ray {
+            origin: o,
+            tmin: 0.0,
+            dir: d,
+            tmax: f32::INFINITY,
+        }
+    }
+
+    #[test]
+    fn hits_with_barycentrics_of_vertices_1_and_2() {
+        let t = tri([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
+        let h = closest_hit_brute(&[t], &ray([0.25, 0.5, 2.0], [0.0, 0.0, -1.0]));
+        assert_eq!((h.t, h.prim, h.u, h.v), (2.0, 0, 0.25, 0.5));
+        // Seen from below (the other winding) the answer is the same.
+        let h = closest_hit_brute(&[t], &ray([0.25, 0.5, -2.0], [0.0, 0.0, 1.0]));
+        assert_eq!((h.t, h.prim, h.u, h.v), (2.0, 0, 0.25, 0.5));
+    }
+
+    #[test]
+    fn shared_edge_and_vertex_are_watertight() {
+        // A unit square split along its diagonal; rays straight down through
+        // points of the diagonal and the shared corners must hit one of the two.
+        let tris = [
+            tri([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0]),
+            tri([0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]),
+        ];
+        for i in 0..=64 {
+            let s = i as f32 / 64.0;
+            for d in [[0.0, 0.0, -1.0], [0.3, -0.2, -1.0], [-1e-3, 1e-3, -1.0]] {
+                let o = [s - d[0] * 3.0, s - d[1] * 3.0, 3.0];
+                let h = closest_hit_brute(&tris, &ray(o, d));
+                assert!(h.is_hit(), "slipped through the diagonal at {s} dir {d:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn invalid_rays_miss() {
+        let t = [tri([-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 1.0, 0.0])];
+        let bad = [
+            ray([f32::NAN, 0.0, 1.0], [0.0, 0.0, -1.0]),
+            ray([0.0, 0.0, 1.0], [0.0, f32::NAN, -1.0]),
+            ray([0.0, 0.0, 1.0], [0.0, 0.0, f32::NEG_INFINITY]),
+            ray([0.0, 0.0, 1.0], [0.0, -0.0, 0.0]),
+            Ray {
+                tmin: 2.0,
+                tmax: 1.0,
+                ..ray([0.0, 0.0, 1.0], [0.0, 0.0, -1.0])
+            },
+            Ray {
+                tmin: f32::NAN,
+                ..ray([0.0, 0.0, 1.0], [0.0, 0.0, -1.0])
+            },
+        ];
+        for r in bad {
+            assert_eq!(closest_hit_brute(&t, &r), Hit::MISS, "{r:?}");
+            assert!(!any_hit_brute(&t, &r));
+        }
+    }
+
+    #[test]
+    fn ray_in_the_triangles_plane_misses_and_degenerate_triangles_miss() {
+        let t = tri([-1.0, 0.0, -1.0], [1.0, 0.0, -1.0], [0.0, 0.0, 1.0]);
+        assert!(!closest_hit_brute(&[t], &ray([0.0, 0.0, -5.0], [0.0, 0.0, 1.0])).is_hit());
+        let line = tri([0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [2.0, 2.0, 0.0]);
+        assert!(!closest_hit_brute(&[line], &ray([1.0, 1.0, 1.0], [0.0, 0.0, -1.0])).is_hit());
+    }
+
+    #[test]
+    fn equal_t_goes_to_the_lower_index() {
+        let t = tri([-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 1.0, 0.0]);
+        let h = closest_hit_brute(&[t, t, t], &ray([0.0, 0.0, 1.0], [0.0, 0.0, -1.0]));
+        assert_eq!(h.prim, 0);
+        let far = tri([-1.0, -1.0, -1.0], [1.0, -1.0, -1.0], [0.0, 1.0, -1.0]);
+        let h = closest_hit_brute(&[far, t, t], &ray([0.0, 0.0, 1.0], [0.0, 0.0, -1.0]));
+        assert_eq!(h.prim, 1);
+    }
+}

@@ -1,0 +1,223 @@
+//! The blob's wire format: a 64-byte header, then sections of Pod records.
+//!
+//! ```text
+//! offset  size  field
+//!      0     8  magic "kdray\0\0\0"
+//!      8     4  endianness check 0xFEFF (the blob is little-endian)
+//!     12     4  format version (1)
+//!     16     4  kind: 1 triangle tree, 2 point tree
+//!     20     4  max depth of any node (root = 0)
+//!     24     4  node count
+//!     28     4  primitive-index count
+//!     32     4  item count (triangles or points)
+//!     36     4  checksum of every byte after the header
+//!     40    24  scene bounds: min x y z, max x y z (f32)
+//!     64        sections, each 4-byte aligned and sized by the counts above:
+//!               nodes (8 B each), primitive indices (4 B each),
+//!               items (36 B triangles / 12 B points), then any
+//!               kind-specific sections.
+//! ```
+//!
+//! Everything is 4-byte aligned, so a blob in 4-byte aligned memory is read
+//! in place: [`Header`] and each section are cast from the bytes, never
+//! copied. The checksum is FNV-1a over little-endian 32-bit words (every
+//! section is a multiple of 4 bytes), fast enough to verify on load.
+
+use crate::error::BlobError;
+use bytemuck::{Pod, Zeroable};
+
+/// The first 8 bytes of every blob.
+pub const MAGIC: [u8; 8] = *b"kdray\0\0\0";
+/// The endianness check word.
+pub const ENDIAN_CHECK: u32 = 0xFEFF;
+/// The format version this kernel writes and reads.
+pub const VERSION: u32 = 1;
+/// The kind of a triangle tree blob.
+pub const KIND_TRIANGLES: u32 = 1;
+/// The kind of a point tree blob.
+pub const KIND_POINTS: u32 = 2;
+/// The header's size in bytes.
+pub const HEADER_LEN: usize = 64;
+
+/// The blob header. `repr(C)`, Pod, 64 bytes (layout in the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+#[repr(C)]
+pub struct Header {
+    /// [`MAGIC`].
+    pub magic: [u8; 8],
+    /// [`ENDIAN_CHECK`].
+    pub endian: u32,
+    /// [`VERSION`].
+    pub version: u32,
+    /// [`KIND_TRIANGLES`] or [`KIND_POINTS`].
+    pub kind: u32,
+    /// The depth of the deepest node (the root has depth 0).
+    pub max_depth: u32,
+    /// Number of nodes.
+    pub node_count: u32,
+    /// Number of primitive indices.
+    pub index_count: u32,
+    /// Number of triangles or points.
+    pub item_count: u32,
+    /// [`checksum`] of every byte after the header.
+    pub checksum: u32,
+    /// Scene bounds: min x, y, z.
+    pub bounds_min: [f32; 3],
+    /// Scene bounds: max x, y, z.
+    pub bounds_max: [f32; 3],
+}
+
+const _: () = assert!(core::mem::size_of::<Header>() == HEADER_LEN);
+
+const FNV_OFFSET: u32 = 0x811C_9DC5;
+const FNV_PRIME: u32 = 0x0100_0193;
+
+/// FNV-1a over the little-endian 32-bit words of `bytes` (a trailing
+/// partial word, which no valid blob has, is folded in byte by byte).
+#[must_use]
+pub fn checksum(bytes: &[u8]) -> u32 {
+    let mut words = bytes.chunks_exact(4);
+    let mut h = FNV_OFFSET;
+    for w in &mut words {
+        h = (h ^ u32::from_le_bytes([w[0], w[1], w[2], w[3]])).wrapping_mul(FNV_PRIME);
+    }
+    for &b in words.remainder() {
+        h = (h ^ u32::from(b)).wrapping_mul(FNV_PRIME);
+    }
+    h
+}
+
+/// Reads the sections after the header in order, each as a slice of Pod
+/// records cast in place; every read names its section for the error.
+pub(crate) struct Sections<'a> {
+    bytes: &'a [u8],
+    pos: usize,
+}
+
+impl<'a> Sections<'a> {
+    /// Checks alignment, magic, endianness, version and kind; returns the
+    /// header and a reader positioned after it. O(1).
+    pub(crate) fn open(bytes: &'a [u8], kind: u32) -> Result<(&'a Header, Self), BlobError> {
+        let offset = bytes.as_ptr() as usize % 4;
+        if offset != 0 {
+            return Err(BlobError::Misaligned { offset });
+        }
+        let Some(head) = bytes.get(..HEADER_LEN) else {
+            return Err(BlobError::Truncated {
+                what: "header",
+                need: HEADER_LEN,
+                have: bytes.len(),
+            });
+        };
+        // Alignment (4) and length (64) were checked above, so this cannot
+        // fail; map the impossible error rather than unwrap.
+        let header: &Header =
+            bytemuck::try_from_bytes(head).map_err(|_| BlobError::Misaligned { offset })?;
+        if header.magic != MAGIC {
+            return Err(BlobError::BadMagic);
+        }
+        if header.endian != ENDIAN_CHECK {
+            return Err(BlobError::BadEndianness {
+                found: header.endian,
+            });
+        }
+        if header.version != VERSION {
+            return Err(BlobError::UnsupportedVersion {
+                found: header.version,
+            });
+        }
+        if header.kind != kind {
+            return Err(BlobError::WrongKind {
+                expected: kind,
+                found: header.kind,
+            });
+        }
+        Ok((
+            header,
+            Sections {
+                bytes,
+                pos: HEADER_LEN,
+            },
+        ))
+    }
+
+    /// The next `count` records of `T` as the section `what`.
+    pub(crate) fn take<T: Pod>(
+        &mut self,
+        what: &'static str,
+        count: u32,
+    ) -> Result<&'a [T], BlobError> {
+        let len = (count as usize)
+            .checked_mul(core::mem::size_of::<T>())
+            .ok_or(BlobError::Overflow { what })?;
+        let end = self
+            .pos
+            .checked_add(len)
+            .ok_or(BlobError::Overflow { what })?;
+        let Some(raw) = self.bytes.get(self.pos..end) else {
+            return Err(BlobError::Truncated {
+                what,
+                need: end,
+                have: self.bytes.len(),
+            });
+        };
+        self.pos = end;
+        // Every section size is a multiple of 4 and the blob starts 4-byte
+        // aligned, so the cast only fails for records aligned above 4.
+        bytemuck::try_cast_slice(raw).map_err(|_| BlobError::Misaligned { offset: end % 4 })
+    }
+
+    /// Checks that the sections end exactly at the end of the input and
+    /// returns the bytes they cover (what the checksum is over).
+    pub(crate) fn finish(self) -> Result<&'a [u8], BlobError> {
+        if self.pos != self.bytes.len() {
+            return Err(BlobError::TrailingBytes {
+                expected: self.pos,
+                have: self.bytes.len(),
+            });
+        }
+        Ok(&self.bytes[HEADER_LEN..])
+    }
+}
+
+/// Checks the header's checksum against the section bytes. O(n).
+pub(crate) fn verify_checksum(header: &Header, body: &[u8]) -> Result<(), BlobError> {
+    let computed = checksum(body);
+    if computed == header.checksum {
+        Ok(())
+    } else {
+        Err(BlobError::Checksum {
+            stored: header.checksum,
+            computed,
+        })
+    }
+}
+
+/// A byte buffer aligned for in-place loading. Wrap `include_bytes!` data
+/// in it (or use [`include_aligned!`](crate::include_aligned)) so the
+/// blob's sections can be read without a copy:
+///
+/// ```ignore
+/// static SCENE: &kdray_kernel::Aligned<[u8]> = kdray_kernel::include_aligned!("scene.kdt");
+/// let tree = kdray_kernel::TriangleTree::from_bytes(&SCENE.bytes)?;
+/// ```
+#[repr(C)]
+pub struct Aligned<B: ?Sized> {
+    /// Zero-sized; raises the alignment of `bytes` to 8.
+    pub _align: [u64; 0],
+    /// The bytes, 8-byte aligned.
+    pub bytes: B,
+}
+
+/// `include_bytes!`, aligned for [`TriangleTree::from_bytes`](crate::TriangleTree::from_bytes):
+/// evaluates to a `&'static Aligned<[u8]>`.
+#[macro_export]
+macro_rules! include_aligned {
+    ($path:expr) => {{
+        static ALIGNED: &$crate::Aligned<[u8]> = &$crate::Aligned {
+            _align: [],
+            bytes: *include_bytes!($path),
+        };
+        ALIGNED
+    }};
+}

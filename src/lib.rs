@@ -1,0 +1,6 @@
+//! kdray: a k-d tree acceleration structure for ray tracing and
+//! nearest-neighbour search. This facade re-exports the `no_std` kernel
+//! ([`kernel`]) and the std tools ([`tools`]: builders, writer, loaders).
+
+pub use kdray_kernel as kernel;
+pub use kdray_tools as tools;

@@ -1,0 +1,16 @@
+//! # kdray-tools
+//!
+//! The std half of kdray: mesh loaders, tree builders, the blob writer,
+//! tree statistics, and the `kdray` command-line tool built on them.
+//!
+//! ```text
+//! mesh file -> mesh::load -> triangles -> build::build -> BuiltTree
+//!           -> blob::write_triangle_tree -> Blob -> Blob::tree() -> kernel queries
+//! ```
+#![forbid(unsafe_code)]
+#![deny(missing_docs)]
+
+pub mod blob;
+pub mod build;
+pub mod mesh;
+pub mod stats;

@@ -1,0 +1,100 @@
+//! Wavefront OBJ through `tobj`, with line numbers for its errors.
+
+use super::MeshError;
+use kdray_kernel::Triangle;
+use std::fs::File;
+use std::io::{BufRead, BufReader, Read};
+use std::path::Path;
+
+/// A reader that hands out at most one line per `fill_buf`, counting the
+/// lines consumed, so that when `tobj` stops at a bad line we can say which.
+struct LineCounting<R> {
+    inner: R,
+    lines: usize,
+}
+
+impl<R: BufRead> Read for LineCounting<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let avail = self.fill_buf()?;
+        let n = avail.len().min(buf.len());
+        buf[..n].copy_from_slice(&avail[..n]);
+        self.consume(n);
+        Ok(n)
+    }
+}
+
+impl<R: BufRead> BufRead for LineCounting<R> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        let buf = self.inner.fill_buf()?;
+        let end = buf
+            .iter()
+            .position(|&b| b == b'\n')
+            .map_or(buf.len(), |i| i + 1);
+        Ok(&buf[..end])
+    }
+
+    fn consume(&mut self, amt: usize) {
+        if let Ok(buf) = self.inner.fill_buf() {
+            self.lines += buf[..amt.min(buf.len())]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count();
+        }
+        self.inner.consume(amt);
+    }
+}
+
+/// Loads the triangles of an OBJ file: every face of every object, in file
+/// order, polygons fanned. Materials are ignored (a missing `mtllib` is fine).
+///
+/// # Errors
+/// A [`MeshError`] for a missing or unreadable file, or a malformed line
+/// (with its number).
+pub fn load_obj(path: &Path) -> Result<Vec<Triangle>, MeshError> {
+    let file =
+        File::open(path).map_err(|e| MeshError::new(path, None, format!("cannot open: {e}")))?;
+    let mut reader = LineCounting {
+        inner: BufReader::new(file),
+        lines: 0,
+    };
+    let opts = tobj::LoadOptions {
+        triangulate: true,
+        single_index: false,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let (models, _materials) =
+        tobj::load_obj_buf(&mut reader, &opts, |_| Err(tobj::LoadError::OpenFileFailed)).map_err(
+            |e| {
+                let line = reader.lines + 1;
+                MeshError::new(path, Some(line), format!("malformed OBJ: {e}"))
+            },
+        )?;
+    let mut tris = Vec::new();
+    for model in &models {
+        let m = &model.mesh;
+        let vertex = |i: u32| -> Option<[f32; 3]> {
+            let i = i as usize * 3;
+            Some([
+                *m.positions.get(i)?,
+                *m.positions.get(i + 1)?,
+                *m.positions.get(i + 2)?,
+            ])
+        };
+        for (f, face) in m.indices.chunks_exact(3).enumerate() {
+            let (Some(a), Some(b), Some(c)) = (vertex(face[0]), vertex(face[1]), vertex(face[2]))
+            else {
+                return Err(MeshError::new(
+                    path,
+                    None,
+                    format!(
+                        "object {:?}: face {f} names a vertex that does not exist",
+                        model.name
+                    ),
+                ));
+            };
+            tris.push(Triangle { v: [a, b, c] });
+        }
+    }
+    Ok(tris)
+}

@@ -152,6 +152,39 @@ impl CellRay {
     }
 }
 
+/// The work one traversal did: what a heatmap shows and a cost model predicts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TraversalCounts {
+    /// Nodes visited, interior and leaf.
+    pub nodes: u32,
+    /// Ray/triangle tests run.
+    pub triangles: u32,
+}
+
+/// Counts traversal work; `()` counts nothing and compiles away.
+pub(crate) trait Tally {
+    fn node(&mut self);
+    fn triangle(&mut self);
+}
+
+impl Tally for () {
+    #[inline(always)]
+    fn node(&mut self) {}
+    #[inline(always)]
+    fn triangle(&mut self) {}
+}
+
+impl Tally for TraversalCounts {
+    #[inline(always)]
+    fn node(&mut self) {
+        self.nodes = self.nodes.saturating_add(1);
+    }
+    #[inline(always)]
+    fn triangle(&mut self) {
+        self.triangles = self.triangles.saturating_add(1);
+    }
+}
+
 /// A far child waiting on the stack with its interval.
 #[derive(Clone, Copy, Debug, Default)]
 struct Pending {
@@ -179,13 +212,28 @@ impl<'a> TriangleTree<'a> {
     #[inline]
     #[must_use]
     pub fn closest_hit(&self, ray: &Ray) -> Hit {
+        self.closest_hit_tallied(ray, &mut ())
+    }
+
+    /// [`TriangleTree::closest_hit`], also counting the nodes visited and
+    /// triangles tested (for heatmaps and tuning; a little slower).
+    #[must_use]
+    pub fn closest_hit_counted(&self, ray: &Ray) -> (Hit, TraversalCounts) {
+        let mut counts = TraversalCounts::default();
+        let hit = self.closest_hit_tallied(ray, &mut counts);
+        (hit, counts)
+    }
+
+    #[inline(always)]
+    fn closest_hit_tallied<T: Tally>(&self, ray: &Ray, tally: &mut T) -> Hit {
         let Some(sr) = ShearedRay::new(ray) else {
             return Hit::MISS;
         };
         let mut best = Closest::new(ray.tmax);
-        self.walk(ray, &sr, |tris, prims| {
+        self.walk(ray, &sr, tally, |tris, prims, tally| {
             for p in prims {
                 if let Some(tri) = tris.get(p as usize) {
+                    tally.triangle();
                     best.offer(&sr, tri, p, ray.tmin);
                 }
             }
@@ -202,16 +250,30 @@ impl<'a> TriangleTree<'a> {
     #[inline]
     #[must_use]
     pub fn any_hit(&self, ray: &Ray) -> bool {
+        self.any_hit_tallied(ray, &mut ())
+    }
+
+    /// [`TriangleTree::any_hit`], also counting the work done.
+    #[must_use]
+    pub fn any_hit_counted(&self, ray: &Ray) -> (bool, TraversalCounts) {
+        let mut counts = TraversalCounts::default();
+        let hit = self.any_hit_tallied(ray, &mut counts);
+        (hit, counts)
+    }
+
+    #[inline(always)]
+    fn any_hit_tallied<T: Tally>(&self, ray: &Ray, tally: &mut T) -> bool {
         let Some(sr) = ShearedRay::new(ray) else {
             return false;
         };
         let mut found = false;
-        self.walk(ray, &sr, |tris, prims| {
+        self.walk(ray, &sr, tally, |tris, prims, tally| {
             for p in prims {
-                if tris
-                    .get(p as usize)
-                    .is_some_and(|tri| sr.intersect(tri, ray.tmin, ray.tmax).is_some())
-                {
+                let Some(tri) = tris.get(p as usize) else {
+                    continue;
+                };
+                tally.triangle();
+                if sr.intersect(tri, ray.tmin, ray.tmax).is_some() {
                     found = true;
                     return Step::Stop;
                 }
@@ -224,9 +286,10 @@ impl<'a> TriangleTree<'a> {
     /// The traversal loop. `leaf` is called with the triangles and each
     /// leaf's primitives, in front-to-back order of cells.
     #[inline(always)]
-    fn walk<F>(&self, ray: &Ray, sr: &ShearedRay, mut leaf: F)
+    fn walk<T, F>(&self, ray: &Ray, sr: &ShearedRay, tally: &mut T, mut leaf: F)
     where
-        F: FnMut(&'a [Triangle], LeafIter<'a>) -> Step,
+        T: Tally,
+        F: FnMut(&'a [Triangle], LeafIter<'a>, &mut T) -> Step,
     {
         let Some(cr) = CellRay::new(ray, sr, &self.bounds) else {
             return;
@@ -239,6 +302,7 @@ impl<'a> TriangleTree<'a> {
             let Some(&node) = self.nodes.get(node_idx as usize) else {
                 return;
             };
+            tally.node();
             let axis = node.axis_bits();
             if axis < 3 {
                 // Compute parametric distance along ray to split plane.
@@ -269,7 +333,7 @@ impl<'a> TriangleTree<'a> {
             }
             // A leaf: test its triangles against the ray's own interval.
             // Cells starting after `cutoff` are behind the best hit.
-            let cutoff = match leaf(self.triangles, LeafIter::new(self.leaf_prims(node))) {
+            let cutoff = match leaf(self.triangles, LeafIter::new(self.leaf_prims(node)), tally) {
                 Step::Stop => return,
                 Step::Continue(best_t) => best_t + s,
             };

@@ -189,8 +189,10 @@ impl Tally for TraversalCounts {
 #[derive(Clone, Copy, Debug, Default)]
 struct Pending {
     node: u32,
-    t0: f32,
-    t1: f32,
+    /// Start of the cell's interval, less the slack.
+    lo: f32,
+    /// End of the cell's interval, plus the slack.
+    hi: f32,
 }
 
 /// What a leaf visitor tells the walk.
@@ -295,9 +297,10 @@ impl<'a> TriangleTree<'a> {
             return;
         };
         let s = cr.slack;
+        let s2 = s + s;
         let mut stack = [Pending::default(); MAX_DEPTH as usize];
         let mut sp = 0usize;
-        let (mut node_idx, mut t0, mut t1) = (0u32, cr.t0, cr.t1);
+        let (mut node_idx, mut lo, mut hi) = (0u32, cr.t0 - s, cr.t1 + s);
         loop {
             let Some(&node) = self.nodes.get(node_idx as usize) else {
                 return;
@@ -309,33 +312,43 @@ impl<'a> TriangleTree<'a> {
                 let t_split = (node.split() - cr.org[axis]) * cr.inv[axis];
                 let first = node.upper() + cr.above_first[axis];
                 let second = node.upper() + 1 - cr.above_first[axis];
-                if t_split - s > t1 {
-                    // Plane beyond the interval: near child only.
+                // The near child's cell ends at t_split, the far child's
+                // starts there. Intervals are kept widened by the slack on
+                // both ends ([lo, hi] = [t0 - s, t1 + s]), so the tests take
+                // t_split as computed, off the critical path of the slack add;
+                // a child's new end is t_split + s, widened once more: + 2s.
+                // Written as "not outside" so a NaN t_split (origin on the
+                // plane, direction parallel to it) visits both over the whole
+                // interval.
+                #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must visit: see above
+                let (visit_near, visit_far) = (!(t_split < lo), !(t_split > hi));
+                // Push the far child unconditionally, keep it only when both
+                // children are visited: no branch to mispredict.
+                let Some(slot) = stack.get_mut(sp) else {
+                    return; // deeper than MAX_DEPTH: only an unchecked, invalid blob
+                };
+                let far_lo = lo.max(t_split - s2);
+                *slot = Pending {
+                    node: second,
+                    lo: far_lo,
+                    hi,
+                };
+                if visit_near {
+                    sp += usize::from(visit_far);
                     node_idx = first;
-                } else if t_split + s < t0 {
-                    // Plane before the interval: far child only.
-                    node_idx = second;
+                    hi = hi.min(t_split + s2);
                 } else {
-                    // Both: push the far child, continue with the near one.
-                    let Some(slot) = stack.get_mut(sp) else {
-                        return; // deeper than MAX_DEPTH: only an unchecked, invalid blob
-                    };
-                    *slot = Pending {
-                        node: second,
-                        t0: t0.max(t_split - s),
-                        t1,
-                    };
-                    sp += 1;
-                    node_idx = first;
-                    t1 = t1.min(t_split + s);
+                    node_idx = second;
+                    lo = far_lo;
                 }
                 continue;
             }
             // A leaf: test its triangles against the ray's own interval.
-            // Cells starting after `cutoff` are behind the best hit.
+            // Cells starting after `cutoff` (best t + s, widened by s) are
+            // behind the best hit.
             let cutoff = match leaf(self.triangles, LeafIter::new(self.leaf_prims(node)), tally) {
                 Step::Stop => return,
-                Step::Continue(best_t) => best_t + s,
+                Step::Continue(best_t) => best_t + s2,
             };
             // Advance to the next far cell that can still hold a better hit.
             loop {
@@ -344,8 +357,8 @@ impl<'a> TriangleTree<'a> {
                 }
                 sp -= 1;
                 let p = stack[sp];
-                if p.t0 <= cutoff {
-                    (node_idx, t0, t1) = (p.node, p.t0, p.t1.min(cutoff));
+                if p.lo <= cutoff {
+                    (node_idx, lo, hi) = (p.node, p.lo, p.hi.min(cutoff));
                     break;
                 }
             }

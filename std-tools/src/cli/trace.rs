@@ -78,9 +78,9 @@ pub(crate) fn run(a: &Args) -> CmdResult {
                 "timing",
                 "seconds excludes reading the tree and rays and writing the hits",
             );
-        println!("{}", j.finish());
+        say!("{}", j.finish());
     } else {
-        println!(
+        say!(
             "traced {} rays ({} {}) on {} threads in {seconds:.3} s: {mrays:.2} Mrays/s (excluding file I/O)",
             rays.len(),
             hit_count,
@@ -88,9 +88,9 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             pool.current_num_threads()
         );
         if let Some((nodes, tris)) = per_ray {
-            println!("per ray: {nodes:.1} nodes visited, {tris:.1} triangles tested");
+            say!("per ray: {nodes:.1} nodes visited, {tris:.1} triangles tested");
         }
-        println!("wrote {}", a.output.display());
+        say!("wrote {}", a.output.display());
     }
     Ok(())
 }

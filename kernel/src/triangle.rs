@@ -151,7 +151,10 @@ impl ShearedRay {
             return None;
         }
         let det = u + v + w;
-        if det == 0.0 {
+        // A zero determinant is a ray in the triangle's plane; an infinite
+        // one means the edge functions overflowed (coordinates beyond
+        // MAX_COORD), and their signs mean nothing.
+        if det == 0.0 || !det.is_finite() {
             return None;
         }
         let t_scaled = u * (sz * az) + v * (sz * bz) + w * (sz * cz);
@@ -332,6 +335,26 @@ mod tests {
         };
         assert_eq!(closest_hit_brute(&[t], &r), Hit::MISS);
         assert!(!any_hit_brute(&[t], &r));
+    }
+
+    #[test]
+    fn overflowing_edge_functions_are_no_hit() {
+        // Found by the tree_vs_brute fuzzer: a vertex at z = 4.26e37 made
+        // the edge products overflow, and the test reported a hit at
+        // t = -0 at the ray origin, far from the triangle (no tree cell
+        // around the origin holds it, so tree and brute force disagreed).
+        let t = tri(
+            [0.0, 0.0, 0.0],
+            [0.0, 0.0, 4.255_651_6e37],
+            [-8.0, -4.0, -4.0],
+        );
+        let r = Ray {
+            origin: [-3.75, 3.75, 9.0],
+            tmin: 0.0,
+            dir: [-1.75, 9.0, 6.75],
+            tmax: f32::INFINITY,
+        };
+        assert_eq!(closest_hit_brute(&[t], &r), Hit::MISS);
     }
 
     #[test]

@@ -1,0 +1,127 @@
+//! The one search loop every point query runs: descend into the near child
+//! first, push the far child if its box may hold a better point, scan the
+//! leaf, backtrack, and prune every subtree whose box is farther than the
+//! current bound. What "better" and "bound" mean is the query's
+//! [`Accumulator`].
+
+use super::{box_distance2, distance2, PointTree};
+use crate::tree::MAX_DEPTH;
+
+/// What a query keeps while the search runs.
+pub(crate) trait Accumulator {
+    /// Subtrees whose box is at a squared distance *above* this are pruned
+    /// (equal is kept: it may hold an equally distant, lower-index point).
+    fn bound(&self) -> f32;
+
+    /// Offers the point `index` at squared distance `d2`; `false` if it was
+    /// rejected (not within the bound, or after the k-th best).
+    fn offer(&mut self, d2: f32, index: u32) -> bool;
+}
+
+impl PointTree<'_> {
+    /// Runs the search for `q` (not NaN: checked by the callers) into `acc`.
+    ///
+    /// The stack holds at most one far child per level, so [`MAX_DEPTH`]
+    /// entries suffice for a validated tree; for an unvalidated one a full
+    /// stack drops the far child (a wrong answer, never a panic).
+    #[inline(always)]
+    pub(crate) fn search<A: Accumulator>(&self, q: &[f32; 3], acc: &mut A) {
+        let mut stack = [(0u32, 0f32); MAX_DEPTH as usize];
+        let mut len = 0usize;
+        // Indexing q by a node's 2-bit axis field needs 4 lanes to be total.
+        let q4 = [q[0], q[1], q[2], 0.0];
+        let mut node_idx = 0u32;
+        let Some(root) = self.bounds.first() else {
+            return;
+        };
+        if box_distance2(root, q) > acc.bound() {
+            return;
+        }
+        'descend: loop {
+            // Walk down to a leaf, near child first.
+            let leaf = loop {
+                let Some(&node) = self.nodes.get(node_idx as usize) else {
+                    break None;
+                };
+                if node.is_leaf() {
+                    break Some(node);
+                }
+                let child = node.upper();
+                // Near child: the one on the query's side of the split plane
+                // (below for coordinates <= split).
+                let above_near = u32::from(q4[node.axis_bits() & 3] > node.split());
+                let near = child + above_near;
+                let far = child + 1 - above_near;
+                let (Some(near_box), Some(far_box)) = (
+                    self.bounds.get(near as usize),
+                    self.bounds.get(far as usize),
+                ) else {
+                    break None;
+                };
+                let near_d = box_distance2(near_box, q);
+                let far_d = box_distance2(far_box, q);
+                let bound = acc.bound();
+                if far_d <= bound {
+                    if let Some(slot) = stack.get_mut(len) {
+                        *slot = (far, far_d);
+                        len += 1;
+                    }
+                }
+                if near_d <= bound {
+                    node_idx = near;
+                } else {
+                    break None;
+                }
+            };
+            if let Some(node) = leaf {
+                self.scan_leaf(node_idx, node, q, acc);
+            }
+            // Backtrack: the nearest pending far child still within the bound.
+            while len > 0 {
+                len -= 1;
+                let (far, far_d) = stack[len];
+                if far_d <= acc.bound() {
+                    node_idx = far;
+                    continue 'descend;
+                }
+            }
+            return;
+        }
+    }
+
+    /// Offers every point of a leaf to `acc`.
+    #[inline(always)]
+    fn scan_leaf<A: Accumulator>(
+        &self,
+        node_idx: u32,
+        node: crate::node::Node,
+        q: &[f32; 3],
+        acc: &mut A,
+    ) {
+        let start = node.word0() as usize;
+        let run = start..start.saturating_add(node.upper() as usize);
+        let (Some(points), Some(indices)) = (self.points.get(run.clone()), self.indices.get(run))
+        else {
+            return;
+        };
+        let pile = self
+            .bounds
+            .get(node_idx as usize)
+            .is_some_and(|b| b.min == b.max);
+        if pile {
+            // All points at one location, indices increasing: once one is
+            // rejected, so is every later one (module docs, "Ties").
+            let Some(p) = points.first() else { return };
+            let d2 = distance2(p, q);
+            for &i in indices {
+                if !acc.offer(d2, i) {
+                    break;
+                }
+            }
+        } else {
+            for (p, &i) in points.iter().zip(indices) {
+                acc.offer(distance2(p, q), i);
+            }
+        }
+    }
+}

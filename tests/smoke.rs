@@ -1,3 +1,4 @@
+//! Smoke test: a random soup traced through a written blob equals brute force.
 use kdray::kernel::{closest_hit_brute, Ray, Triangle};
 use kdray::tools::blob::write_triangle_tree;
 use kdray::tools::build::{build, BuildParams, BuilderKind};

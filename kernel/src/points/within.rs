@@ -21,10 +21,7 @@ impl fmt::Display for BufferTooSmall {
     }
 }
 
-#[cfg(feature = "std")]
-impl std::error::Error for BufferTooSmall {}
-#[cfg(feature = "std")]
-extern crate std;
+impl core::error::Error for BufferTooSmall {}
 
 /// Hands every point at squared distance `<= r2` to a callback.
 struct Within<F> {

@@ -119,8 +119,14 @@ impl PointTree<'_> {
                 }
             }
         } else {
-            for (p, &i) in points.iter().zip(indices) {
-                acc.offer(distance2(p, q), i);
+            for (j, p) in points.iter().enumerate() {
+                let d2 = distance2(p, q);
+                // Most points lose; only a winner's index is read.
+                if d2 <= acc.bound() {
+                    if let Some(&i) = indices.get(j) {
+                        acc.offer(d2, i);
+                    }
+                }
             }
         }
     }

@@ -127,8 +127,8 @@ pub enum BlobError {
         /// The length it has.
         found: u32,
     },
-    /// A node's bounds are non-finite or inverted, or not inside its
-    /// parent's bounds (point trees).
+    /// A node's bounds are non-finite or inverted, not inside its parent's
+    /// bounds, or on the wrong side of its parent's split plane (point trees).
     BadNodeBounds {
         /// The node's index.
         node: u32,
@@ -232,7 +232,7 @@ impl fmt::Display for BlobError {
             ),
             BadNodeBounds { node } => write!(
                 f,
-                "node {node} has non-finite or inverted bounds, or bounds outside its parent's"
+                "node {node} has non-finite or inverted bounds, or bounds outside its parent's or across its split plane"
             ),
             LeafOutOfOrder { node, offset, expected } => write!(
                 f,

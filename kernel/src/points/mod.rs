@@ -14,15 +14,18 @@
 //!    at or below the node. The header's scene bounds are the root's.
 //!
 //! # How a query prunes
-//! The split plane only orders the visit: the child on the query's side of
-//! it (the near child) is searched first. Pruning uses the tight bounds: a
-//! subtree is skipped when the squared distance from the query to its box
-//! is *greater* than the current k-th best. That box distance is computed
-//! with the same f32 expression as a point's distance ([`distance2`]), and
-//! f32 subtraction, multiplication and addition are monotone, so it never
-//! exceeds the computed distance of any point inside: no point that brute
-//! force would report is ever pruned, and pruning only on *greater* keeps
-//! equal-distance points with lower indices reachable. Hence exactness.
+//! The child on the query's side of the split plane (the near child) is
+//! searched first; the far child is pushed with a lower bound on its
+//! points' squared distances: the squared gap from the query to the split
+//! plane (every far point lies beyond it: the validator checks each child's
+//! box against the plane). When it is popped, its tight box gives a better
+//! bound. A subtree is skipped when its bound is *greater* than the current
+//! k-th best. Both bounds are computed with the same f32 operations as a
+//! point's distance ([`distance2`]), and f32 subtraction, multiplication
+//! and addition are monotone, so neither exceeds the computed distance of
+//! any point it covers: no point that brute force would report is ever
+//! pruned, and pruning only on *greater* keeps equal-distance points with
+//! lower indices reachable. Hence exactness.
 //!
 //! # Ties and degenerate sets
 //! Results are ordered by (squared distance, point index). A leaf's
@@ -241,10 +244,18 @@ impl<'a> PointTree<'a> {
                 .get(i as usize)
                 .ok_or(BlobError::BadNodeBounds { node: i })?;
             match node.kind() {
-                NodeKind::Interior { child, .. } => {
-                    for c in [child, child + 1] {
+                NodeKind::Interior { child, axis, split } => {
+                    let a = axis.index();
+                    // Below child's points at or below the split plane,
+                    // above child's at or above it: the queries' plane
+                    // bound relies on it.
+                    let sides: [fn(&Bounds, usize, f32) -> bool; 2] =
+                        [|b, a, s| b.max[a] <= s, |b, a, s| b.min[a] >= s];
+                    for (c, on_side) in [child, child + 1].into_iter().zip(sides) {
                         let inner = bounds.get(c as usize);
-                        if !inner.is_some_and(|b| b.is_valid() && nests(b, own)) {
+                        if !inner
+                            .is_some_and(|b| b.is_valid() && nests(b, own) && on_side(b, a, split))
+                        {
                             return Err(BlobError::BadNodeBounds { node: c });
                         }
                     }

@@ -26,6 +26,7 @@ impl PointTree<'_> {
     /// stack drops the far child (a wrong answer, never a panic).
     #[inline(always)]
     pub(crate) fn search<A: Accumulator>(&self, q: &[f32; 3], acc: &mut A) {
+        // (far child, lower bound on its points' squared distances)
         let mut stack = [(0u32, 0f32); MAX_DEPTH as usize];
         let mut len = 0usize;
         // Indexing q by a node's 2-bit axis field needs 4 lanes to be total.
@@ -34,11 +35,16 @@ impl PointTree<'_> {
         let Some(root) = self.bounds.first() else {
             return;
         };
-        if box_distance2(root, q) > acc.bound() {
+        // The lower bound of the subtree being descended: its box distance.
+        let mut lower = box_distance2(root, q);
+        if lower > acc.bound() {
             return;
         }
         'descend: loop {
-            // Walk down to a leaf, near child first.
+            // Walk down to a leaf, near child first. No box is read here:
+            // the far child's bound is the larger of the split plane's gap
+            // (every far point is beyond the plane, validated) and the
+            // subtree's own bound; its box is read only if it is popped.
             let leaf = loop {
                 let Some(&node) = self.nodes.get(node_idx as usize) else {
                     break None;
@@ -46,41 +52,36 @@ impl PointTree<'_> {
                 if node.is_leaf() {
                     break Some(node);
                 }
+                let gap = q4[node.axis_bits() & 3] - node.split();
+                // Near child: the one on the query's side of the split
+                // plane (below for coordinates <= split).
+                let above_near = u32::from(gap > 0.0);
                 let child = node.upper();
-                // Near child: the one on the query's side of the split plane
-                // (below for coordinates <= split).
-                let above_near = u32::from(q4[node.axis_bits() & 3] > node.split());
-                let near = child + above_near;
-                let far = child + 1 - above_near;
-                let (Some(near_box), Some(far_box)) = (
-                    self.bounds.get(near as usize),
-                    self.bounds.get(far as usize),
-                ) else {
-                    break None;
-                };
-                let near_d = box_distance2(near_box, q);
-                let far_d = box_distance2(far_box, q);
-                let bound = acc.bound();
-                if far_d <= bound {
+                let far_d = (gap * gap).max(lower);
+                if far_d <= acc.bound() {
                     if let Some(slot) = stack.get_mut(len) {
-                        *slot = (far, far_d);
+                        *slot = (child + 1 - above_near, far_d);
                         len += 1;
                     }
                 }
-                if near_d <= bound {
-                    node_idx = near;
-                } else {
-                    break None;
-                }
+                node_idx = child + above_near;
             };
             if let Some(node) = leaf {
                 self.scan_leaf(node_idx, node, q, acc);
             }
-            // Backtrack: the nearest pending far child still within the bound.
+            // Backtrack: the nearest pending far child whose box is still
+            // within the bound (the tight box prunes empty space).
             while len > 0 {
                 len -= 1;
                 let (far, far_d) = stack[len];
-                if far_d <= acc.bound() {
+                if far_d > acc.bound() {
+                    continue;
+                }
+                let Some(far_box) = self.bounds.get(far as usize) else {
+                    continue;
+                };
+                lower = box_distance2(far_box, q).max(far_d);
+                if lower <= acc.bound() {
                     node_idx = far;
                     continue 'descend;
                 }

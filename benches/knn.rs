@@ -53,7 +53,7 @@ fn bench(c: &mut Criterion) {
             b.iter(|| build_points(black_box(pts), &params).unwrap())
         });
         g.bench_with_input(BenchmarkId::new("kiddo", name), pts, |b, pts| {
-            b.iter(|| ImmutableKdTree::<f32, 3>::new_from_slice(black_box(pts)))
+            b.iter(|| ImmutableKdTree::<f32, 3>::new_from_slice(black_box(pts)).unwrap())
         });
     }
     g.finish();
@@ -73,12 +73,19 @@ fn bench(c: &mut Criterion) {
                     }
                 })
             });
-            let kd = ImmutableKdTree::<f32, 3>::new_from_slice(pts);
-            let kk = NonZeroUsize::new(k).unwrap_or(NonZeroUsize::MIN);
+            let kd = ImmutableKdTree::<f32, 3>::new_from_slice(pts).unwrap();
+            let kk = NonZeroUsize::new(k).unwrap();
+            let mut scratch = kd.create_scratch::<SquaredEuclidean<f32>>();
             g.bench_function(BenchmarkId::new("kiddo", name), |b| {
                 b.iter(|| {
                     for q in qs {
-                        black_box(kd.nearest_n::<SquaredEuclidean>(q, kk));
+                        if k == 1 {
+                            let r = kd.query(q).nearest_one::<SquaredEuclidean<f32>>();
+                            black_box(r.execute());
+                        } else {
+                            let r = kd.query(q).nearest_n::<SquaredEuclidean<f32>>(kk);
+                            black_box(r.with_scratch(&mut scratch).execute().len());
+                        }
                     }
                 })
             });

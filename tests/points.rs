@@ -1,7 +1,7 @@
 //! Point trees against brute force (bit for bit, ties included) on the
 //! sets the issue names, and hostile point blobs.
 
-use kdray::kernel::wire::{checksum, HEADER_LEN};
+use kdray::kernel::wire::{blob_checksum, CHECKSUM_OFFSET, HEADER_LEN};
 use kdray::kernel::{knn_brute, nearest_brute, within_brute, BlobError, Neighbour, PointTree};
 use kdray::tools::blob::{write_point_tree, Blob};
 use kdray::tools::points::{build_points, knn_all, PointParams};
@@ -152,8 +152,13 @@ fn nan_queries_are_empty_and_nan_points_are_refused() {
 fn edited(blob: &Blob, f: impl FnOnce(&mut [u8])) -> Blob {
     let mut bytes = blob.as_bytes().to_vec();
     f(&mut bytes[HEADER_LEN..]);
-    let sum = checksum(&bytes[HEADER_LEN..]);
-    bytes[36..40].copy_from_slice(&sum.to_le_bytes());
+    resealed(bytes)
+}
+
+/// `bytes` with a checksum that matches them.
+fn resealed(mut bytes: Vec<u8>) -> Blob {
+    let sum = blob_checksum(&bytes);
+    bytes[CHECKSUM_OFFSET..CHECKSUM_OFFSET + 4].copy_from_slice(&sum.to_le_bytes());
     Blob::from_bytes(&bytes)
 }
 
@@ -227,7 +232,7 @@ fn hostile_point_blobs_are_refused_with_the_right_error() {
     let mut bytes = blob.as_bytes().to_vec();
     bytes[40..44].copy_from_slice(&(-5.0f32).to_le_bytes());
     assert_eq!(
-        Blob::from_bytes(&bytes).point_tree().unwrap_err(),
+        resealed(bytes).point_tree().unwrap_err(),
         BlobError::BadBounds
     );
     // Truncated and trailing bytes.

@@ -41,7 +41,7 @@ pub use points::{
     distance2, knn_brute, nearest_brute, within_brute, BufferTooSmall, Neighbour, PointTree,
 };
 pub use ray::{Hit, Ray, MISS, OCCLUDED};
-pub use traverse::{CellRay, Closest, SLACK};
+pub use traverse::{CellRay, Closest, TraversalCounts, SLACK};
 pub use tree::{Bounds, TriangleTree, MAX_DEPTH};
 pub use triangle::{
     any_hit_brute, closest_hit_brute, edge_functions_f64, ray_is_valid, ShearedRay, Triangle,

@@ -3,7 +3,8 @@
 use crate::build::BuiltTree;
 use crate::points::BuiltPoints;
 use kdray_kernel::wire::{
-    checksum, Header, ENDIAN_CHECK, HEADER_LEN, KIND_POINTS, KIND_TRIANGLES, MAGIC, VERSION,
+    blob_checksum, Header, CHECKSUM_OFFSET, ENDIAN_CHECK, HEADER_LEN, KIND_POINTS, KIND_TRIANGLES,
+    MAGIC, VERSION,
 };
 use kdray_kernel::{BlobError, Bounds, PointTree, Triangle, TriangleTree};
 use std::path::Path;
@@ -159,11 +160,12 @@ fn assemble(c: Counts, bounds: Bounds, sections: &[&[u32]]) -> Blob {
         node_count: c.nodes as u32,
         index_count: c.indices as u32,
         item_count: c.items as u32,
-        checksum: checksum(bytemuck::cast_slice(&words[HEADER_LEN / 4..])),
+        checksum: 0,
         bounds_min: bounds.min,
         bounds_max: bounds.max,
     };
     words[..HEADER_LEN / 4].copy_from_slice(bytemuck::cast_slice(&[header]));
+    words[CHECKSUM_OFFSET / 4] = blob_checksum(bytemuck::cast_slice(&words));
     let len = words.len() * 4;
     Blob { words, len }
 }

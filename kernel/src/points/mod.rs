@@ -140,8 +140,8 @@ impl<'a> PointTree<'a> {
     /// # Panics
     /// Never, for any input.
     pub fn from_bytes(bytes: &'a [u8]) -> Result<Self, BlobError> {
-        let (header, tree, body) = Self::sections(bytes)?;
-        wire::verify_checksum(header, body)?;
+        let (header, tree, whole) = Self::sections(bytes)?;
+        wire::verify_checksum(header, whole)?;
         let tree = Self::from_parts(tree.nodes, tree.indices, tree.points, tree.bounds)?;
         let root = tree.bounds.first().copied();
         if root.map(|b| (b.min, b.max)) != Some((header.bounds_min, header.bounds_max)) {
@@ -179,14 +179,15 @@ impl<'a> PointTree<'a> {
         Ok(tree)
     }
 
-    /// The header, the unvalidated view and the bytes the checksum covers.
+    /// The header, the unvalidated view and the whole blob (what the
+    /// checksum covers).
     fn sections(bytes: &'a [u8]) -> Result<(&'a Header, Self, &'a [u8]), BlobError> {
         let (header, mut s) = Sections::open(bytes, KIND_POINTS)?;
         let nodes = s.take("nodes", header.node_count)?;
         let indices = s.take("point indices", header.index_count)?;
         let points = s.take("points", header.item_count)?;
         let bounds = s.take("node bounds", header.node_count)?;
-        let body = s.finish()?;
+        let whole = s.finish()?;
         let tree = PointTree {
             nodes,
             indices,
@@ -194,7 +195,7 @@ impl<'a> PointTree<'a> {
             bounds,
             max_depth: header.max_depth,
         };
-        Ok((header, tree, body))
+        Ok((header, tree, whole))
     }
 
     /// A view of a tree held in memory (a builder's output), validated like

@@ -49,11 +49,11 @@ pub(crate) fn run(a: &Args) -> CmdResult {
                 "timing",
                 "build_ms excludes reading and parsing the mesh and writing the blob",
             );
-        println!("{}", stats_json(j, &stats).finish());
+        say!("{}", stats_json(j, &stats).finish());
     } else {
-        println!("built {} -> {}", a.mesh.display(), a.output.display());
-        println!("  load               {load_ms:.1} ms");
-        println!(
+        say!("built {} -> {}", a.mesh.display(), a.output.display());
+        say!("  load               {load_ms:.1} ms");
+        say!(
             "  build              {build_ms:.1} ms ({} builder)",
             BuilderKind::default().name()
         );

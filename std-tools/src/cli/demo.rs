@@ -34,7 +34,7 @@ impl Default for Args {
 
 pub(crate) fn run(a: &Args) -> CmdResult {
     let scene = teapot_in_stadium();
-    println!(
+    say!(
         "built-in scene: teapot in a stadium, {} triangles",
         scene.triangles.len()
     );
@@ -44,7 +44,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let build_ms = t.elapsed().as_secs_f64() * 1e3;
     let blob = write_triangle_tree(&built, &scene.triangles);
     let tree = blob.tree()?;
-    println!("  build              {build_ms:.1} ms");
+    say!("  build              {build_ms:.1} ms");
     print_stats(&tree_stats(&tree, CostModel::from_params(&params)));
 
     let rays = Camera::framing(&scene.focus).rays(a.size, a.size);
@@ -57,7 +57,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     pool.install(|| trace_into(&tree, &rays, &mut hits, Query::Closest));
     let all = t.elapsed().as_secs_f64();
     let hit = hits.iter().filter(|h| h.is_hit()).count();
-    println!(
+    say!(
         "traced {}x{} camera rays ({hit} hit): {:.2} Mrays/s on 1 thread, {:.2} Mrays/s on {} threads",
         a.size,
         a.size,
@@ -82,7 +82,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         .zip(&brute)
         .filter(|(r, b)| tree.closest_hit(r).bits() != b.bits())
         .count();
-    println!(
+    say!(
         "brute force on {} of those rays: {:.4} Mrays/s; the tree is {:.0}x faster and agrees on {}/{} bit for bit",
         sample.len(),
         1.0 / brute_s / 1e6,

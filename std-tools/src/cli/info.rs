@@ -32,9 +32,9 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             .str("tree", &a.tree.display().to_string())
             .str("valid", "yes")
             .num("validate_ms", validate_ms);
-        println!("{}", stats_json(j, &stats).finish());
+        say!("{}", stats_json(j, &stats).finish());
     } else {
-        println!(
+        say!(
             "{}: valid kdray triangle tree (validated in {validate_ms:.1} ms)",
             a.tree.display()
         );

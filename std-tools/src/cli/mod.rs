@@ -1,5 +1,14 @@
 //! Argument parsing and dispatch: one file per subcommand.
 
+/// `println!` that never panics: a closed stdout (`kdray ... | head`) is
+/// not an error worth a panic, and a report line is all that is lost.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
 mod build;
 mod build_points;
 mod demo;

@@ -21,20 +21,24 @@ pub(crate) fn stats_json(j: JsonObject, s: &TreeStats) -> JsonObject {
 
 /// Prints the statistics for a person.
 pub(crate) fn print_stats(s: &TreeStats) {
-    println!("  triangles          {}", s.triangles);
-    println!(
+    say!("  triangles          {}", s.triangles);
+    say!(
         "  nodes              {} ({} leaves, {} empty)",
-        s.nodes, s.leaves, s.empty_leaves
+        s.nodes,
+        s.leaves,
+        s.empty_leaves
     );
-    println!(
+    say!(
         "  depth              max {}, mean leaf {:.1}",
-        s.max_depth, s.mean_leaf_depth
+        s.max_depth,
+        s.mean_leaf_depth
     );
-    println!("  refs per triangle  {:.2}", s.refs_per_triangle);
-    println!("  tris per full leaf {:.2}", s.mean_leaf_size);
-    println!("  SAH cost           {:.2}", s.sah_cost);
-    println!(
+    say!("  refs per triangle  {:.2}", s.refs_per_triangle);
+    say!("  tris per full leaf {:.2}", s.mean_leaf_size);
+    say!("  SAH cost           {:.2}", s.sah_cost);
+    say!(
         "  size               {} bytes ({:.1} per triangle)",
-        s.bytes, s.bytes_per_triangle
+        s.bytes,
+        s.bytes_per_triangle
     );
 }

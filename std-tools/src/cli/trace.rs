@@ -28,6 +28,10 @@ pub(crate) struct Args {
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     json: bool,
+    /// Also count nodes visited and triangles tested per ray (a second,
+    /// untimed pass).
+    #[arg(long)]
+    counts: bool,
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
@@ -47,6 +51,19 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     pool.install(|| trace_into(&tree, &rays, &mut hits, query));
     let seconds = t.elapsed().as_secs_f64();
     io::write_records(&a.output, &hits)?;
+    let per_ray = a.counts.then(|| {
+        let mut total = (0u64, 0u64);
+        for r in &rays {
+            let c = match query {
+                Query::Closest => tree.closest_hit_counted(r).1,
+                Query::Any => tree.any_hit_counted(r).1,
+            };
+            total.0 += u64::from(c.nodes);
+            total.1 += u64::from(c.triangles);
+        }
+        let n = rays.len().max(1) as f64;
+        (total.0 as f64 / n, total.1 as f64 / n)
+    });
     let hit_count = hits.iter().filter(|h| h.prim != kdray_kernel::MISS).count();
     let mrays = rays.len() as f64 / seconds.max(1e-12) / 1e6;
     if a.json {
@@ -61,16 +78,19 @@ pub(crate) fn run(a: &Args) -> CmdResult {
                 "timing",
                 "seconds excludes reading the tree and rays and writing the hits",
             );
-        println!("{}", j.finish());
+        say!("{}", j.finish());
     } else {
-        println!(
+        say!(
             "traced {} rays ({} {}) on {} threads in {seconds:.3} s: {mrays:.2} Mrays/s (excluding file I/O)",
             rays.len(),
             hit_count,
             if a.any_hit { "occluded" } else { "hit" },
             pool.current_num_threads()
         );
-        println!("wrote {}", a.output.display());
+        if let Some((nodes, tris)) = per_ray {
+            say!("per ray: {nodes:.1} nodes visited, {tris:.1} triangles tested");
+        }
+        say!("wrote {}", a.output.display());
     }
     Ok(())
 }

@@ -193,11 +193,33 @@ fn split_axis(len: usize, b: &Bounds, depth: u32, params: &PointParams) -> Optio
 
 /// Partitions `items` at the median of `axis`: below `..mid`, above
 /// `mid..`; returns `mid` and the split location (the median coordinate).
+///
+/// Points equal to the median all go below when some point is left above:
+/// the above child's box then starts strictly past the split plane, so a
+/// query sitting on a pile or plane of equal coordinates (where ties make
+/// every subtree at distance 0 worth a visit) prunes the above side by the
+/// plane's gap. Measured on the `dupes` anchor set (one core): k = 1
+/// 0.8-0.9M -> 1.3-2.0M queries/s; no change on uniform points.
 fn partition(items: &mut [Item], axis: Axis) -> (usize, f32) {
     let a = axis.index();
     let mid = items.len() / 2;
     items.select_nth_unstable_by(mid, |x, y| x.p[a].total_cmp(&y.p[a]));
-    (mid, items[mid].p[a])
+    let split = items[mid].p[a];
+    // Move the ties after the median to the front of the above part.
+    let above = &mut items[mid + 1..];
+    let mut ties = 0;
+    for j in 0..above.len() {
+        if above[j].p[a] == split {
+            above.swap(ties, j);
+            ties += 1;
+        }
+    }
+    let end = mid + 1 + ties;
+    if end < items.len() {
+        (end, split)
+    } else {
+        (mid, split)
+    }
 }
 
 /// A leaf over `items` at `offset`: its indices sorted (the kernel's tie

@@ -117,6 +117,45 @@ pub enum BlobError {
         /// The index read.
         prim: u32,
     },
+    /// Two sections that must have the same length do not (a point tree's
+    /// indices and points, or its node bounds and nodes).
+    SectionMismatch {
+        /// The section whose length is wrong.
+        what: &'static str,
+        /// The length it must have.
+        expected: u32,
+        /// The length it has.
+        found: u32,
+    },
+    /// A node's bounds are non-finite or inverted, not inside its parent's
+    /// bounds, or on the wrong side of its parent's split plane (point trees).
+    BadNodeBounds {
+        /// The node's index.
+        node: u32,
+    },
+    /// A leaf's run does not start where the previous leaf's (depth-first,
+    /// below child first) ended: the runs must tile the points exactly.
+    LeafOutOfOrder {
+        /// The leaf's index.
+        node: u32,
+        /// The run's offset.
+        offset: u32,
+        /// The offset the tiling requires.
+        expected: u32,
+    },
+    /// A point lies outside the bounds of the leaf holding it, or is not
+    /// finite (point trees).
+    PointOutsideNode {
+        /// The leaf's index.
+        node: u32,
+        /// The point's position in the blob's point section.
+        position: u32,
+    },
+    /// A leaf's point indices are not strictly increasing (point trees).
+    LeafNotSorted {
+        /// The leaf's index.
+        node: u32,
+    },
     /// The tree is deeper than the traversal stack (or than the header says).
     TooDeep {
         /// The node found too deep.
@@ -186,6 +225,25 @@ impl fmt::Display for BlobError {
             ),
             PrimitiveOutOfRange { at, prim } => {
                 write!(f, "primitive index {prim} at {at} names no item")
+            }
+            SectionMismatch { what, expected, found } => write!(
+                f,
+                "blob {what} section has {found} records, expected {expected}"
+            ),
+            BadNodeBounds { node } => write!(
+                f,
+                "node {node} has non-finite or inverted bounds, or bounds outside its parent's or across its split plane"
+            ),
+            LeafOutOfOrder { node, offset, expected } => write!(
+                f,
+                "leaf {node} starts its run at {offset}, but the previous leaf ended at {expected}"
+            ),
+            PointOutsideNode { node, position } => write!(
+                f,
+                "point at position {position} is non-finite or outside the bounds of its leaf {node}"
+            ),
+            LeafNotSorted { node } => {
+                write!(f, "leaf {node} lists its point indices out of increasing order")
             }
             TooDeep { node, depth, max } => write!(
                 f,

@@ -9,6 +9,10 @@
 //!   ray with the lecture's non-recursive loop on a fixed stack of
 //!   [`MAX_DEPTH`] entries (768 bytes).
 //!
+//! - [`PointTree::from_bytes`] does the same for a point tree, which
+//!   answers [`PointTree::nearest`], [`PointTree::knn`] and
+//!   [`PointTree::within`] exactly as brute force does.
+//!
 //! ## Guarantees
 //! - **No panics** for any blob, ray or query, validated or not.
 //! - **No allocation**, no `std`; stack use is bounded by [`MAX_DEPTH`].
@@ -24,6 +28,7 @@
 
 mod error;
 pub mod node;
+mod points;
 mod ray;
 mod traverse;
 mod tree;
@@ -32,6 +37,9 @@ pub mod wire;
 
 pub use error::BlobError;
 pub use node::{Axis, Node, NodeKind};
+pub use points::{
+    distance2, knn_brute, nearest_brute, within_brute, BufferTooSmall, Neighbour, PointTree,
+};
 pub use ray::{Hit, Ray, MISS, OCCLUDED};
 pub use traverse::{CellRay, Closest, TraversalCounts, SLACK};
 pub use tree::{Bounds, TriangleTree, MAX_DEPTH};

@@ -17,14 +17,17 @@ use crate::error::BlobError;
 use crate::node::{Node, NodeKind};
 use crate::triangle::Triangle;
 use crate::wire::{self, Header, Sections, KIND_TRIANGLES};
+use bytemuck::{Pod, Zeroable};
 
 /// The deepest a node may be (the root is at depth 0). The traversal stack
 /// holds one entry per level, so this is also its capacity; builders cap
 /// their depth at it and loaders refuse deeper trees.
 pub const MAX_DEPTH: u32 = 64;
 
-/// An axis-aligned box.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// An axis-aligned box. `repr(C)`, Pod, 24 bytes (min x y z, max x y z):
+/// also the record of a point tree's per-node bounds section.
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+#[repr(C)]
 pub struct Bounds {
     /// Minimum corner.
     pub min: [f32; 3],
@@ -40,7 +43,8 @@ impl Bounds {
         (0..3).all(|a| p[a] >= self.min[a] && p[a] <= self.max[a])
     }
 
-    fn is_valid(&self) -> bool {
+    /// Is every coordinate finite and `min <= max` on every axis?
+    pub(crate) fn is_valid(&self) -> bool {
         (0..3).all(|a| {
             self.min[a].is_finite() && self.max[a].is_finite() && self.min[a] <= self.max[a]
         })
@@ -218,6 +222,15 @@ pub(crate) enum LeafPrims<'a> {
     Run(&'a [u32]),
 }
 
+/// [`validate_nodes_with`] with no kind-specific checks.
+pub(crate) fn validate_nodes(
+    nodes: &[Node],
+    prims: &[u32],
+    items: usize,
+) -> Result<u32, BlobError> {
+    validate_nodes_with(nodes, prims, items, |_, _| Ok(()))
+}
+
 /// Walks the tree depth-first on a fixed stack, checking the layout rule
 /// of the module docs, every split and every leaf. Returns the max depth.
 ///
@@ -225,10 +238,15 @@ pub(crate) enum LeafPrims<'a> {
 /// node count before it is pushed, so the walk never indexes out of range,
 /// and since each pair must be the next unused one, it visits each node
 /// at most once: O(n), and it always terminates.
-pub(crate) fn validate_nodes(
+///
+/// `visit(index, node)` is called for every node in depth-first order,
+/// below child first, after the node's own checks passed (so an interior
+/// node's children are in range): the hook for a tree kind's own checks.
+pub(crate) fn validate_nodes_with(
     nodes: &[Node],
     prims: &[u32],
     items: usize,
+    mut visit: impl FnMut(u32, Node) -> Result<(), BlobError>,
 ) -> Result<u32, BlobError> {
     if nodes.is_empty() {
         return Err(BlobError::NoNodes);
@@ -303,6 +321,7 @@ pub(crate) fn validate_nodes(
                 }
             }
         }
+        visit(i, node)?;
     }
     if next_pair != total {
         return Err(BlobError::UnreachableNodes {

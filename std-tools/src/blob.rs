@@ -1,11 +1,12 @@
 //! The blob writer, and an owned, aligned blob that lends a kernel view.
 
 use crate::build::BuiltTree;
+use crate::points::BuiltPoints;
 use kdray_kernel::wire::{
-    blob_checksum, Header, CHECKSUM_OFFSET, ENDIAN_CHECK, HEADER_LEN, KIND_TRIANGLES, MAGIC,
-    VERSION,
+    blob_checksum, Header, CHECKSUM_OFFSET, ENDIAN_CHECK, HEADER_LEN, KIND_POINTS, KIND_TRIANGLES,
+    MAGIC, VERSION,
 };
-use kdray_kernel::{BlobError, Triangle, TriangleTree};
+use kdray_kernel::{BlobError, Bounds, PointTree, Triangle, TriangleTree};
 use std::path::Path;
 
 /// Blob bytes held in `u32` words, so they are always 4-byte aligned and
@@ -72,6 +73,14 @@ impl Blob {
     pub fn tree(&self) -> Result<TriangleTree<'_>, BlobError> {
         TriangleTree::from_bytes(self.as_bytes())
     }
+
+    /// The validated point tree view ([`PointTree::from_bytes`]).
+    ///
+    /// # Errors
+    /// The kernel's [`BlobError`].
+    pub fn point_tree(&self) -> Result<PointTree<'_>, BlobError> {
+        PointTree::from_bytes(self.as_bytes())
+    }
 }
 
 /// Serialises a built tree and its triangles: header, nodes, primitive
@@ -81,27 +90,81 @@ impl Blob {
 /// same bytes on every run.
 #[must_use]
 pub fn write_triangle_tree(tree: &BuiltTree, triangles: &[Triangle]) -> Blob {
-    let mut body: Vec<u32> =
-        Vec::with_capacity(tree.nodes.len() * 2 + tree.prims.len() + triangles.len() * 9);
-    body.extend_from_slice(bytemuck::cast_slice(&tree.nodes));
-    body.extend_from_slice(&tree.prims);
-    body.extend_from_slice(bytemuck::cast_slice(triangles));
+    assemble(
+        Counts {
+            kind: KIND_TRIANGLES,
+            max_depth: tree.max_depth,
+            nodes: tree.nodes.len(),
+            indices: tree.prims.len(),
+            items: triangles.len(),
+        },
+        tree.bounds,
+        &[
+            bytemuck::cast_slice(&tree.nodes),
+            &tree.prims,
+            bytemuck::cast_slice(triangles),
+        ],
+    )
+}
+
+/// Serialises a built point tree: header, nodes, point indices, points in
+/// leaf order, node bounds (the kernel's `PointTree` docs). Byte order and
+/// determinism as [`write_triangle_tree`].
+#[must_use]
+pub fn write_point_tree(tree: &BuiltPoints) -> Blob {
+    let root = tree.bounds.first().copied().unwrap_or(Bounds {
+        min: [0.0; 3],
+        max: [0.0; 3],
+    });
+    assemble(
+        Counts {
+            kind: KIND_POINTS,
+            max_depth: tree.max_depth,
+            nodes: tree.nodes.len(),
+            indices: tree.indices.len(),
+            items: tree.points.len(),
+        },
+        root,
+        &[
+            bytemuck::cast_slice(&tree.nodes),
+            &tree.indices,
+            bytemuck::cast_slice(&tree.points),
+            bytemuck::cast_slice(&tree.bounds),
+        ],
+    )
+}
+
+/// The header fields that differ between blobs.
+struct Counts {
+    kind: u32,
+    max_depth: u32,
+    nodes: usize,
+    indices: usize,
+    items: usize,
+}
+
+/// The header (with the checksum of the sections), then the sections.
+fn assemble(c: Counts, bounds: Bounds, sections: &[&[u32]]) -> Blob {
+    let body_len: usize = sections.iter().map(|s| s.len()).sum();
+    let mut words = Vec::with_capacity(HEADER_LEN / 4 + body_len);
+    words.resize(HEADER_LEN / 4, 0);
+    for s in sections {
+        words.extend_from_slice(s);
+    }
     let header = Header {
         magic: MAGIC,
         endian: ENDIAN_CHECK,
         version: VERSION,
-        kind: KIND_TRIANGLES,
-        max_depth: tree.max_depth,
-        node_count: (tree.nodes.len() as u32),
-        index_count: (tree.prims.len() as u32),
-        item_count: (triangles.len() as u32),
+        kind: c.kind,
+        max_depth: c.max_depth,
+        node_count: c.nodes as u32,
+        index_count: c.indices as u32,
+        item_count: c.items as u32,
         checksum: 0,
-        bounds_min: tree.bounds.min,
-        bounds_max: tree.bounds.max,
+        bounds_min: bounds.min,
+        bounds_max: bounds.max,
     };
-    let mut words = Vec::with_capacity(HEADER_LEN / 4 + body.len());
-    words.extend_from_slice(bytemuck::cast_slice(&[header]));
-    words.extend_from_slice(&body);
+    words[..HEADER_LEN / 4].copy_from_slice(bytemuck::cast_slice(&[header]));
     words[CHECKSUM_OFFSET / 4] = blob_checksum(bytemuck::cast_slice(&words));
     let len = words.len() * 4;
     Blob { words, len }

@@ -6,6 +6,8 @@
 //! ```text
 //! mesh file -> mesh::load -> triangles -> build::build -> BuiltTree
 //!           -> blob::write_triangle_tree -> Blob -> Blob::tree() -> kernel queries
+//! .pts file -> io::read_records -> points::build_points -> BuiltPoints
+//!           -> blob::write_point_tree -> Blob -> Blob::point_tree() -> kernel queries
 //! ```
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
@@ -15,6 +17,7 @@ pub mod build;
 pub mod camera;
 pub mod io;
 pub mod mesh;
+pub mod points;
 pub mod rng;
 pub mod scene;
 pub mod stats;

@@ -10,9 +10,11 @@ macro_rules! say {
 }
 
 mod build;
+mod build_points;
 mod demo;
 mod info;
 mod json;
+mod knn;
 mod report;
 mod trace;
 
@@ -35,6 +37,10 @@ enum Command {
     Info(info::Args),
     /// Trace a ray file against a tree, writing a hit file.
     Trace(trace::Args),
+    /// Build a point tree and write it as a blob.
+    BuildPoints(build_points::Args),
+    /// Answer the k nearest points of every query in a file.
+    Knn(knn::Args),
     /// Build and trace the built-in teapot-in-a-stadium scene (the default).
     Demo(demo::Args),
 }
@@ -49,6 +55,8 @@ pub(crate) fn main() -> ExitCode {
         Some(Command::Build(a)) => build::run(&a),
         Some(Command::Info(a)) => info::run(&a),
         Some(Command::Trace(a)) => trace::run(&a),
+        Some(Command::BuildPoints(a)) => build_points::run(&a),
+        Some(Command::Knn(a)) => knn::run(&a),
         Some(Command::Demo(a)) => demo::run(&a),
         None => demo::run(&demo::Args::default()),
     };

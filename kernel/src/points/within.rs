@@ -1,0 +1,178 @@
+//! All points within a radius: by callback, or into a caller's buffer.
+
+use super::search::Accumulator;
+use super::{distance2, query_is_valid, Neighbour, PointTree};
+use core::fmt;
+
+/// [`PointTree::within`]'s buffer could not hold every point in range.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BufferTooSmall {
+    /// How many points are in range: the buffer length that suffices.
+    pub needed: usize,
+}
+
+impl fmt::Display for BufferTooSmall {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} points are in range; the buffer is smaller",
+            self.needed
+        )
+    }
+}
+
+impl core::error::Error for BufferTooSmall {}
+
+/// Hands every point at squared distance `<= r2` to a callback.
+struct Within<F> {
+    r2: f32,
+    found: F,
+}
+
+impl<F: FnMut(Neighbour)> Accumulator for Within<F> {
+    #[inline(always)]
+    fn bound(&self) -> f32 {
+        self.r2
+    }
+
+    #[inline(always)]
+    fn offer(&mut self, d2: f32, index: u32) -> bool {
+        let inside = d2 <= self.r2;
+        if inside {
+            (self.found)(Neighbour { index, d2 });
+        }
+        inside
+    }
+}
+
+impl PointTree<'_> {
+    /// Calls `found` once for every point at squared distance `<= r2` from
+    /// `q` (the radius is given squared, so "within" is decided by the same
+    /// f32 distance as everywhere else), in tree order. Nothing for a NaN
+    /// query or a NaN `r2`.
+    ///
+    /// # Panics
+    /// Never (unless `found` does). No allocation.
+    pub fn for_each_within(&self, q: [f32; 3], r2: f32, found: impl FnMut(Neighbour)) {
+        if !query_is_valid(&q) || r2.is_nan() {
+            return;
+        }
+        self.search(&q, &mut Within { r2, found });
+    }
+
+    /// Every point at squared distance `<= r2` from `q`, written to the
+    /// front of `out` sorted by (squared distance, index); returns how many.
+    ///
+    /// # Errors
+    /// [`BufferTooSmall`] with the number of points in range when `out`
+    /// cannot hold them all; `out` then holds `out.len()` of them, in no
+    /// particular order.
+    ///
+    /// # Panics
+    /// Never. No allocation.
+    pub fn within(
+        &self,
+        q: [f32; 3],
+        r2: f32,
+        out: &mut [Neighbour],
+    ) -> Result<usize, BufferTooSmall> {
+        let mut needed = 0;
+        self.for_each_within(q, r2, |n| {
+            if let Some(slot) = out.get_mut(needed) {
+                *slot = n;
+            }
+            needed += 1;
+        });
+        finish(out, needed)
+    }
+}
+
+/// Sorts the found points, or reports that they did not fit.
+fn finish(out: &mut [Neighbour], needed: usize) -> Result<usize, BufferTooSmall> {
+    let Some(found) = out.get_mut(..needed) else {
+        return Err(BufferTooSmall { needed });
+    };
+    found.sort_unstable_by(|a, b| a.d2.total_cmp(&b.d2).then(a.index.cmp(&b.index)));
+    Ok(needed)
+}
+
+/// The oracle for [`PointTree::within`]: every point in order, with the
+/// same distance expression (index = position).
+///
+/// # Errors
+/// As [`PointTree::within`].
+pub fn within_brute(
+    points: &[[f32; 3]],
+    q: [f32; 3],
+    r2: f32,
+    out: &mut [Neighbour],
+) -> Result<usize, BufferTooSmall> {
+    let mut needed = 0;
+    if query_is_valid(&q) && !r2.is_nan() {
+        let mut acc = Within {
+            r2,
+            found: |n| {
+                if let Some(slot) = out.get_mut(needed) {
+                    *slot = n;
+                }
+                needed += 1;
+            },
+        };
+        for (i, p) in points.iter().enumerate() {
+            acc.offer(distance2(p, &q), i as u32);
+        }
+    }
+    finish(out, needed)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::points::tests_support::{hand_tree, HAND_POINTS};
+
+    #[test]
+    fn hand_built_tree_finds_the_ball() {
+        let parts = hand_tree();
+        let tree = parts.view();
+        let mut out = [Neighbour::NONE; 7];
+        // Within d2 <= 9 of (0,0,0): 0 (0), 1 (1), 2 (9), 3 (9): the boundary counts.
+        assert_eq!(tree.within([0.0; 3], 9.0, &mut out), Ok(4));
+        assert_eq!(
+            [out[0], out[1], out[2], out[3]].map(|n| n.index),
+            [0, 1, 2, 3]
+        );
+        // A buffer of 2 for 4 points: the count needed.
+        assert_eq!(
+            tree.within([0.0; 3], 9.0, &mut out[..2]),
+            Err(BufferTooSmall { needed: 4 })
+        );
+        // The pile, from on top of it.
+        assert_eq!(tree.within([5.0, 5.0, 0.0], 0.0, &mut out), Ok(2));
+        assert_eq!((out[0].index, out[1].index), (4, 5));
+        let mut calls = 0;
+        tree.for_each_within([f32::NAN; 3], 100.0, |_| calls += 1);
+        tree.for_each_within([0.0; 3], f32::NAN, |_| calls += 1);
+        assert_eq!(calls, 0);
+    }
+
+    #[test]
+    fn random_queries_match_brute_force() {
+        let parts = hand_tree();
+        let tree = parts.view();
+        let mut s = 5u32;
+        for _ in 0..1000 {
+            let mut next = || {
+                s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                ((s >> 8) % 10) as f32 - 1.0
+            };
+            let q = [next(), next(), next()];
+            let r2 = next() * 4.0;
+            let (mut a, mut b) = ([Neighbour::NONE; 7], [Neighbour::NONE; 7]);
+            assert_eq!(
+                tree.within(q, r2, &mut a),
+                within_brute(&HAND_POINTS, q, r2, &mut b)
+            );
+            assert_eq!(a.map(Neighbour::bits), b.map(Neighbour::bits), "{q:?} {r2}");
+        }
+    }
+}

@@ -1,0 +1,102 @@
+//! `kdray knn POINTS QUERIES -k K -o OUT`: build a point tree, answer the
+//! k nearest neighbours of every query, write a `.knn` file.
+
+use super::json::JsonObject;
+use super::{thread_pool, CmdResult};
+use kdray_kernel::Neighbour;
+use kdray_tools::io;
+use kdray_tools::points::{build_points, knn_all, PointParams};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `kdray knn`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct Args {
+    /// The points (.pts: 12-byte records, formats/RAYS.md).
+    points: PathBuf,
+    /// The query points (.pts).
+    queries: PathBuf,
+    /// How many neighbours per query.
+    #[arg(short, default_value_t = 1)]
+    k: usize,
+    /// Where to write the neighbours (.knn: k 8-byte records per query).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Points per leaf (the lecture's m).
+    #[arg(long, default_value_t = PointParams::default().leaf_size)]
+    leaf_size: usize,
+    /// Build and answer this many times; timings are the best pass.
+    #[arg(long, default_value_t = 1)]
+    reps: usize,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Print one JSON object instead of the summary.
+    #[arg(long)]
+    json: bool,
+}
+
+pub(crate) fn run(a: &Args) -> CmdResult {
+    if a.k == 0 || a.reps == 0 {
+        return Err("-k and --reps must be at least 1".into());
+    }
+    let pool = thread_pool(a.threads)?;
+    let points: Vec<[f32; 3]> = io::read_records(&a.points, "point")?;
+    let queries: Vec<[f32; 3]> = io::read_records(&a.queries, "point")?;
+    let params = PointParams {
+        leaf_size: a.leaf_size,
+        ..PointParams::default()
+    };
+    let len = queries
+        .len()
+        .checked_mul(a.k)
+        .ok_or("queries times k overflows")?;
+    let mut out = vec![Neighbour::NONE; len];
+    let (mut build_s, mut query_s) = (f64::INFINITY, f64::INFINITY);
+    pool.install(|| -> Result<(), String> {
+        for _ in 0..a.reps {
+            let t = Instant::now();
+            let built = build_points(&points, &params)
+                .map_err(|e| format!("{}: {e}", a.points.display()))?;
+            build_s = build_s.min(t.elapsed().as_secs_f64());
+            let tree = built
+                .view()
+                .map_err(|e| format!("internal error: the built tree does not validate: {e}"))?;
+            let t = Instant::now();
+            knn_all(&tree, &queries, a.k, &mut out);
+            query_s = query_s.min(t.elapsed().as_secs_f64());
+        }
+        Ok(())
+    })?;
+    io::write_records(&a.output, &out)?;
+    let qps = queries.len() as f64 / query_s.max(1e-12);
+    if a.json {
+        let j = JsonObject::default()
+            .num("points", points.len() as f64)
+            .num("queries", queries.len() as f64)
+            .num("k", a.k as f64)
+            .num("threads", pool.current_num_threads() as f64)
+            .num("leaf_size", a.leaf_size as f64)
+            .num("reps", a.reps as f64)
+            .num("build_ms", build_s * 1e3)
+            .num("seconds", query_s)
+            .num("queries_per_s", qps)
+            .str(
+                "timing",
+                "build_ms and seconds exclude reading the point files and writing the output; best of reps",
+            );
+        println!("{}", j.finish());
+    } else {
+        println!(
+            "built {} points in {:.1} ms; {} queries, k = {}, on {} threads in {query_s:.3} s: {:.0} queries/s (excluding file I/O)",
+            points.len(),
+            build_s * 1e3,
+            queries.len(),
+            a.k,
+            pool.current_num_threads(),
+            qps
+        );
+        println!("wrote {}", a.output.display());
+    }
+    Ok(())
+}

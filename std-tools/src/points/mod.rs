@@ -1,0 +1,34 @@
+//! Point k-d trees: the builder ([`build_points`]), the queries over many
+//! points at once ([`knn_all`]), and their parameters.
+//!
+//! ```text
+//! .pts file -> io::read_records -> build_points -> BuiltPoints
+//!           -> blob::write_point_tree -> Blob -> Blob::point_tree() -> kernel queries
+//! ```
+
+mod build;
+
+pub use build::{build_points, BuiltPoints, PointBuildError, PointParams};
+
+use kdray_kernel::{Neighbour, PointTree};
+use rayon::prelude::*;
+
+/// The `k` nearest points of every query, `k` records per query in query
+/// order (`.knn` layout, [`Neighbour::NONE`] where fewer than `k` points
+/// exist), on the current rayon pool. `out.len()` must be
+/// `queries.len() * k`; extra records are left as they are.
+pub fn knn_all(tree: &PointTree<'_>, queries: &[[f32; 3]], k: usize, out: &mut [Neighbour]) {
+    if k == 0 {
+        return;
+    }
+    // Chunks of queries per task: enough work to amortise the task.
+    const CHUNK: usize = 256;
+    out.par_chunks_mut(k * CHUNK)
+        .zip(queries.par_chunks(CHUNK))
+        .for_each(|(out, queries)| {
+            for (o, q) in out.chunks_exact_mut(k).zip(queries) {
+                let found = tree.knn(*q, o);
+                o[found..].fill(Neighbour::NONE);
+            }
+        });
+}

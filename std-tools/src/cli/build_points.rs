@@ -50,9 +50,9 @@ pub(crate) fn run(a: &Args) -> CmdResult {
                 "timing",
                 "build_ms excludes reading the points and writing the blob",
             );
-        println!("{}", j.finish());
+        say!("{}", j.finish());
     } else {
-        println!(
+        say!(
             "built {} points -> {}: {} nodes, depth {}, {} bytes, {build_ms:.1} ms (excluding file I/O)",
             points.len(),
             a.output.display(),

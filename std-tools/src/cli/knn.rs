@@ -85,9 +85,9 @@ pub(crate) fn run(a: &Args) -> CmdResult {
                 "timing",
                 "build_ms and seconds exclude reading the point files and writing the output; best of reps",
             );
-        println!("{}", j.finish());
+        say!("{}", j.finish());
     } else {
-        println!(
+        say!(
             "built {} points in {:.1} ms; {} queries, k = {}, on {} threads in {query_s:.3} s: {:.0} queries/s (excluding file I/O)",
             points.len(),
             build_s * 1e3,
@@ -96,7 +96,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             pool.current_num_threads(),
             qps
         );
-        println!("wrote {}", a.output.display());
+        say!("wrote {}", a.output.display());
     }
     Ok(())
 }

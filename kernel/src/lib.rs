@@ -23,6 +23,7 @@
 
 mod error;
 pub mod node;
+pub mod packet;
 mod ray;
 mod traverse;
 mod tree;
@@ -31,6 +32,7 @@ pub mod wire;
 
 pub use error::BlobError;
 pub use node::{Axis, Node, NodeKind};
+pub use packet::{Packet, Packet4, Packet8, PacketWidth};
 pub use ray::{Hit, Ray, MISS, OCCLUDED};
 pub use traverse::{CellRay, Closest, SLACK};
 pub use tree::{Bounds, TriangleTree, MAX_DEPTH};

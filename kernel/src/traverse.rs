@@ -65,12 +65,19 @@ impl Closest {
     #[inline(always)]
     pub fn offer(&mut self, sr: &ShearedRay, tri: &Triangle, prim: u32, tmin: f32) {
         if let Some(h) = sr.intersect(tri, tmin, self.t) {
-            // h.t <= self.t here, so equal t is the only other case.
-            if h.t < self.t || prim < self.prim {
-                self.t = h.t;
-                self.prim = prim;
-                self.hit = Some(h);
-            }
+            self.keep(h, prim);
+        }
+    }
+
+    /// Keeps hit `h` of triangle `prim` if it wins; `h` was found over
+    /// `[tmin, self.t]` (packet lanes call this with their own test's hits).
+    #[inline(always)]
+    pub(crate) fn keep(&mut self, h: TriangleHit, prim: u32) {
+        // h.t <= self.t here, so equal t is the only other case.
+        if h.t < self.t || prim < self.prim {
+            self.t = h.t;
+            self.prim = prim;
+            self.hit = Some(h);
         }
     }
 
@@ -297,7 +304,7 @@ pub(crate) enum LeafIter<'a> {
 
 impl<'a> LeafIter<'a> {
     #[inline(always)]
-    fn new(p: LeafPrims<'a>) -> Self {
+    pub(crate) fn new(p: LeafPrims<'a>) -> Self {
         match p {
             LeafPrims::One(p) => LeafIter::One(Some(p)),
             LeafPrims::Run(r) => LeafIter::Run(r.iter()),

@@ -166,7 +166,10 @@ pub fn blob(data: &[u8]) {
         let ray = rays.ray();
         let _ = (tree.closest_hit(&ray), tree.any_hit(&ray));
         let p: Packet8 = rays.packet();
-        let _ = (tree.closest_hit8(&p), tree.any_hit4(&Packet4::from_rays(&[ray])));
+        let _ = (
+            tree.closest_hit8(&p),
+            tree.any_hit4(&Packet4::from_rays(&[ray])),
+        );
     }
 }
 
@@ -176,14 +179,23 @@ fn blob_of(tris: &[Triangle], kind: BuilderKind) -> Option<Blob> {
     Some(write_triangle_tree(&built, tris))
 }
 
-fn assert_lanes<const N: usize>(tree: &TriangleTree, p: &Packet<N>, hits: [Hit; N], any: [bool; N]) {
+fn assert_lanes<const N: usize>(
+    tree: &TriangleTree,
+    p: &Packet<N>,
+    hits: [Hit; N],
+    any: [bool; N],
+) {
     for l in 0..N {
         let r = p.ray(l);
         let (want, want_any) = match p.valid[l] {
             true => (tree.closest_hit(&r), tree.any_hit(&r)),
             false => (Hit::MISS, false),
         };
-        assert_eq!(hits[l].bits(), want.bits(), "closest, lane {l} of {N}: {r:?}");
+        assert_eq!(
+            hits[l].bits(),
+            want.bits(),
+            "closest, lane {l} of {N}: {r:?}"
+        );
         assert_eq!(any[l], want_any, "any, lane {l} of {N}: {r:?}");
     }
 }

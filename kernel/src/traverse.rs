@@ -189,15 +189,11 @@ impl<'a> TriangleTree<'a> {
         let Some(sr) = ShearedRay::new(ray) else {
             return Hit::MISS;
         };
+        let Some(cr) = CellRay::new(ray, &sr, &self.bounds) else {
+            return Hit::MISS;
+        };
         let mut best = Closest::new(ray.tmax);
-        self.walk(ray, &sr, |tris, prims| {
-            for p in prims {
-                if let Some(tri) = tris.get(p as usize) {
-                    best.offer(&sr, tri, p, ray.tmin);
-                }
-            }
-            Step::Continue(best.t)
-        });
+        self.closest_from(&sr, &cr, ray.tmin, &mut best, (0, cr.t0, cr.t1));
         best.hit()
     }
 
@@ -212,36 +208,72 @@ impl<'a> TriangleTree<'a> {
         let Some(sr) = ShearedRay::new(ray) else {
             return false;
         };
+        let Some(cr) = CellRay::new(ray, &sr, &self.bounds) else {
+            return false;
+        };
+        self.any_from(&sr, &cr, (ray.tmin, ray.tmax), (0, cr.t0, cr.t1))
+    }
+
+    /// The closest-hit search of one ray through the subtree at `start`
+    /// `(node, t0, t1)`, into `best`; triangles are tested over
+    /// `[tmin, best.t]`. (Packets finish lone lanes with it.)
+    #[inline(always)]
+    pub(crate) fn closest_from(
+        &self,
+        sr: &ShearedRay,
+        cr: &CellRay,
+        tmin: f32,
+        best: &mut Closest,
+        start: (u32, f32, f32),
+    ) {
+        self.walk(cr, start, |tris, prims| {
+            for p in prims {
+                if let Some(tri) = tris.get(p as usize) {
+                    best.offer(sr, tri, p, tmin);
+                }
+            }
+            Step::Continue(best.t)
+        });
+    }
+
+    /// The any-hit search of one ray over `[tmin, tmax]` through the
+    /// subtree at `start` `(node, t0, t1)`.
+    #[inline(always)]
+    pub(crate) fn any_from(
+        &self,
+        sr: &ShearedRay,
+        cr: &CellRay,
+        (tmin, tmax): (f32, f32),
+        start: (u32, f32, f32),
+    ) -> bool {
         let mut found = false;
-        self.walk(ray, &sr, |tris, prims| {
+        self.walk(cr, start, |tris, prims| {
             for p in prims {
                 if tris
                     .get(p as usize)
-                    .is_some_and(|tri| sr.intersect(tri, ray.tmin, ray.tmax).is_some())
+                    .is_some_and(|tri| sr.intersect(tri, tmin, tmax).is_some())
                 {
                     found = true;
                     return Step::Stop;
                 }
             }
-            Step::Continue(ray.tmax)
+            Step::Continue(tmax)
         });
         found
     }
 
-    /// The traversal loop. `leaf` is called with the triangles and each
-    /// leaf's primitives, in front-to-back order of cells.
+    /// The traversal loop from `start` = (node, t0, t1). `leaf` is called
+    /// with the triangles and each leaf's primitives, in front-to-back
+    /// order of cells.
     #[inline(always)]
-    fn walk<F>(&self, ray: &Ray, sr: &ShearedRay, mut leaf: F)
+    fn walk<F>(&self, cr: &CellRay, start: (u32, f32, f32), mut leaf: F)
     where
         F: FnMut(&'a [Triangle], LeafIter<'a>) -> Step,
     {
-        let Some(cr) = CellRay::new(ray, sr, &self.bounds) else {
-            return;
-        };
         let s = cr.slack;
         let mut stack = [Pending::default(); MAX_DEPTH as usize];
         let mut sp = 0usize;
-        let (mut node_idx, mut t0, mut t1) = (0u32, cr.t0, cr.t1);
+        let (mut node_idx, mut t0, mut t1) = start;
         loop {
             let Some(&node) = self.nodes.get(node_idx as usize) else {
                 return;

@@ -43,6 +43,18 @@ pub(crate) struct LaneRays<V, const N: usize> {
     pub(crate) org_k: [V; 3],
     /// The shear constants.
     pub(crate) shear: [V; 3],
+    /// Each active lane as the single ray prepares it, with its
+    /// `[tmin, tmax]`: lanes left alone in a subtree finish as single rays.
+    pub(crate) single: [Option<Single>; N],
+}
+
+/// One lane as a single ray.
+#[derive(Clone, Copy)]
+pub(crate) struct Single {
+    pub(crate) sr: ShearedRay,
+    pub(crate) cr: CellRay,
+    pub(crate) tmin: f32,
+    pub(crate) tmax: f32,
 }
 
 impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
@@ -59,6 +71,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
         let mut ks = [[0usize; 3]; N];
         let mut org_k = [[0.0f32; N]; 3];
         let mut shear = [[0.0f32; N]; 3];
+        let mut single = [None; N];
         for l in 0..N {
             let ray = packet.ray(l);
             if !packet.valid[l] {
@@ -81,6 +94,12 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
             (t0[l], t1[l], slack[l]) = (cr.t0, cr.t1, cr.slack);
             (tmin[l], tmax[l]) = (ray.tmin, ray.tmax);
             ks[l] = sr.k;
+            single[l] = Some(Single {
+                sr,
+                cr,
+                tmin: ray.tmin,
+                tmax: ray.tmax,
+            });
         }
         let first = ks[(active.trailing_zeros() as usize).min(N - 1)];
         let k_uniform = (0..N)
@@ -104,6 +123,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
             k_is: core::array::from_fn(|j| [lanes_where(j, 0), lanes_where(j, 1)]),
             org_k: org_k.map(V::from_array),
             shear: shear.map(V::from_array),
+            single,
         }
     }
 }

@@ -26,6 +26,10 @@ use crate::ray::Hit;
 use crate::traverse::{Closest, LeafIter};
 use crate::tree::{TriangleTree, MAX_DEPTH};
 
+/// How many lanes left in a cell make the packet finish them one by one
+/// as single rays (measured on the bunny, see `benches/packets.rs`).
+const FEW_LANES: u32 = 1;
+
 /// A far child waiting on the stack with its lanes and their intervals.
 #[derive(Clone, Copy)]
 struct Pending<V> {
@@ -33,6 +37,100 @@ struct Pending<V> {
     lanes: u32,
     t0: V,
     t1: V,
+}
+
+/// What the packet loop does at a leaf and for a lone lane. Both return
+/// each lane's best `t` (cells starting more than the slack beyond it are
+/// skipped) and the lanes still searching, or `None` when all are done.
+trait Visit<'a, V> {
+    /// Tests a leaf's primitives against `lanes`.
+    fn leaf(&mut self, prims: LeafIter<'a>, lanes: u32) -> Option<(V, u32)>;
+    /// Finishes lane `l` as a single ray through the subtree `(node, t0, t1)`.
+    fn single(&mut self, l: usize, start: (u32, f32, f32)) -> Option<(V, u32)>;
+}
+
+/// The closest-hit search: one [`Closest`] per lane.
+struct ClosestLanes<'t, 'a, V, const N: usize> {
+    tree: &'t TriangleTree<'a>,
+    lr: &'t LaneRays<V, N>,
+    best: [Closest; N],
+    best_t: V,
+}
+
+impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for ClosestLanes<'_, 'a, V, N> {
+    #[inline(always)]
+    fn leaf(&mut self, prims: LeafIter<'a>, lanes: u32) -> Option<(V, u32)> {
+        for p in prims {
+            let Some(tri) = self.tree.triangles.get(p as usize) else {
+                continue;
+            };
+            if let Some(h) = self.lr.intersect(tri, lanes, self.best_t) {
+                for (l, b) in self.best.iter_mut().enumerate() {
+                    if h.hit >> l & 1 == 1 {
+                        b.keep(h.lane(l), p);
+                    }
+                }
+                self.best_t = V::from_array(self.best.map(|b| b.t));
+            }
+        }
+        Some((self.best_t, self.lr.active))
+    }
+
+    #[inline(always)]
+    fn single(&mut self, l: usize, start: (u32, f32, f32)) -> Option<(V, u32)> {
+        if let (Some(Some(one)), Some(best)) = (self.lr.single.get(l), self.best.get_mut(l)) {
+            self.tree
+                .closest_from(&one.sr, &one.cr, one.tmin, best, start);
+            self.best_t = V::from_array(self.best.map(|b| b.t));
+        }
+        Some((self.best_t, self.lr.active))
+    }
+}
+
+/// The any-hit search: a bitmask of the lanes found occluded.
+struct AnyLanes<'t, 'a, V, const N: usize> {
+    tree: &'t TriangleTree<'a>,
+    lr: &'t LaneRays<V, N>,
+    occluded: u32,
+}
+
+impl<'a, V: Lanes<N>, const N: usize> AnyLanes<'_, 'a, V, N> {
+    #[inline(always)]
+    fn state(&self) -> Option<(V, u32)> {
+        let alive = self.lr.active & !self.occluded;
+        (alive != 0).then_some((self.lr.tmax, alive))
+    }
+}
+
+impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for AnyLanes<'_, 'a, V, N> {
+    #[inline(always)]
+    fn leaf(&mut self, prims: LeafIter<'a>, lanes: u32) -> Option<(V, u32)> {
+        let mut open = lanes & !self.occluded;
+        for p in prims {
+            if open == 0 {
+                break;
+            }
+            let tri = self.tree.triangles.get(p as usize);
+            if let Some(h) = tri.and_then(|t| self.lr.intersect(t, open, self.lr.tmax)) {
+                self.occluded |= h.hit;
+                open &= !h.hit;
+            }
+        }
+        self.state()
+    }
+
+    #[inline(always)]
+    fn single(&mut self, l: usize, start: (u32, f32, f32)) -> Option<(V, u32)> {
+        if let Some(Some(one)) = self.lr.single.get(l) {
+            if self
+                .tree
+                .any_from(&one.sr, &one.cr, (one.tmin, one.tmax), start)
+            {
+                self.occluded |= 1 << l;
+            }
+        }
+        self.state()
+    }
 }
 
 impl<'a> TriangleTree<'a> {
@@ -44,28 +142,16 @@ impl<'a> TriangleTree<'a> {
         lr: &LaneRays<V, N>,
     ) -> [Hit; N] {
         let tmax = lr.tmax.to_array();
-        let mut best: [Closest; N] = core::array::from_fn(|l| Closest::new(tmax[l]));
-        let mut best_t = lr.tmax;
-        let tris = self.triangles;
-        self.walk_lanes(lr, |prims, lanes| {
-            for p in prims {
-                let Some(tri) = tris.get(p as usize) else {
-                    continue;
-                };
-                if let Some(h) = lr.intersect(tri, lanes, best_t) {
-                    for (l, b) in best.iter_mut().enumerate() {
-                        if h.hit >> l & 1 == 1 {
-                            b.keep(h.lane(l), p);
-                        }
-                    }
-                    best_t = V::from_array(core::array::from_fn(|l| best[l].t));
-                }
-            }
-            Some((best_t, lr.active))
-        });
+        let mut visit = ClosestLanes {
+            tree: self,
+            lr,
+            best: core::array::from_fn(|l| Closest::new(tmax[l])),
+            best_t: lr.tmax,
+        };
+        self.walk_lanes(lr, &mut visit);
         core::array::from_fn(|l| {
             if lr.active >> l & 1 == 1 {
-                best[l].hit()
+                visit.best[l].hit()
             } else {
                 Hit::MISS
             }
@@ -75,37 +161,22 @@ impl<'a> TriangleTree<'a> {
     /// Bit `l` set when lane `l` of `lr` hits any triangle.
     #[inline(always)]
     pub(crate) fn any_lanes<V: Lanes<N>, const N: usize>(&self, lr: &LaneRays<V, N>) -> u32 {
-        let mut occluded = 0u32;
-        let tris = self.triangles;
-        self.walk_lanes(lr, |prims, lanes| {
-            let mut open = lanes & !occluded;
-            for p in prims {
-                if open == 0 {
-                    break;
-                }
-                if let Some(h) = tris
-                    .get(p as usize)
-                    .and_then(|t| lr.intersect(t, open, lr.tmax))
-                {
-                    occluded |= h.hit;
-                    open &= !h.hit;
-                }
-            }
-            let alive = lr.active & !occluded;
-            (alive != 0).then_some((lr.tmax, alive))
-        });
-        occluded
+        let mut visit = AnyLanes {
+            tree: self,
+            lr,
+            occluded: 0,
+        };
+        self.walk_lanes(lr, &mut visit);
+        visit.occluded
     }
 
-    /// The packet loop. `leaf` is called with each leaf's primitives and
-    /// the lanes in its cell; it returns each lane's best `t` (cells
-    /// starting more than the slack beyond it are skipped) and the lanes
-    /// still searching, or `None` when every lane is done.
+    /// The packet loop: `visit` tests leaves and finishes lone lanes.
     #[inline(always)]
-    fn walk_lanes<V: Lanes<N>, const N: usize, F>(&self, lr: &LaneRays<V, N>, mut leaf: F)
-    where
-        F: FnMut(LeafIter<'a>, u32) -> Option<(V, u32)>,
-    {
+    fn walk_lanes<V: Lanes<N>, const N: usize>(
+        &self,
+        lr: &LaneRays<V, N>,
+        visit: &mut impl Visit<'a, V>,
+    ) {
         let s = lr.slack;
         let empty = Pending {
             node: 0,
@@ -124,7 +195,18 @@ impl<'a> TriangleTree<'a> {
                 return;
             };
             let axis = node.axis_bits();
-            if let (Some(&org), Some(&inv), Some(&af), Some(&af_mask)) = (
+            let step = if lanes.count_ones() <= FEW_LANES {
+                // Few lanes left in this subtree: a packet step would
+                // cost as much as several single-ray steps.
+                let (lo, hi) = (t0.to_array(), t1.to_array());
+                let mut step = None;
+                for l in 0..N {
+                    if lanes >> l & 1 == 1 {
+                        step = visit.single(l, (node_idx, lo[l], hi[l]));
+                    }
+                }
+                step
+            } else if let (Some(&org), Some(&inv), Some(&af), Some(&af_mask)) = (
                 lr.org.get(axis),
                 lr.inv.get(axis),
                 lr.above_first.get(axis),
@@ -179,9 +261,11 @@ impl<'a> TriangleTree<'a> {
                 sp += 1;
                 (node_idx, lanes, t0, t1) = (first.node, first.lanes, first.t0, first.t1);
                 continue;
-            }
-            // A leaf: test its triangles against the lanes' own intervals.
-            let Some((best_t, alive)) = leaf(LeafIter::new(self.leaf_prims(node)), lanes) else {
+            } else {
+                // A leaf: test its triangles against the lanes' own intervals.
+                visit.leaf(LeafIter::new(self.leaf_prims(node)), lanes)
+            };
+            let Some((best_t, alive)) = step else {
                 return;
             };
             // Advance to the next far cell that can still hold a better hit

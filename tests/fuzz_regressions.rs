@@ -28,3 +28,16 @@ fn seed_corpora_replay() {
     assert!(replay_dir("fuzz/corpus/packet_vs_single", checks::packet_vs_single) >= 3);
     assert!(replay_dir("fuzz/corpus/tree_vs_brute", checks::tree_vs_brute) >= 3);
 }
+
+/// Found by `tree_vs_brute` (150 s run): 12 triangles, two of them
+/// reaching z = 4.26e37; the ray from (-3.75, 3.75, 9) hits triangle 5 at
+/// t = -0.0 (accepted: -0.0 >= tmin = 0.0) by brute force, the SAH tree
+/// misses. A scalar tree/builder bug (not packets): ignored until the
+/// lead fixes it; run with `cargo test -- --ignored`.
+#[test]
+#[ignore = "scalar tree misses a t = -0.0 hit on a huge triangle (reported, unfixed)"]
+fn tree_vs_brute_sah_misses_t_neg_zero_hit_on_huge_triangle() {
+    checks::tree_vs_brute(include_bytes!(
+        "../fuzz/regressions/tree_vs_brute/sah_misses_t_neg_zero_hit_on_huge_triangle"
+    ));
+}

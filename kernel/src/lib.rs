@@ -20,6 +20,7 @@
 //!   inverted `[tmin, tmax]`) miss.
 #![no_std]
 #![deny(missing_docs)]
+#![warn(clippy::std_instead_of_core, clippy::alloc_instead_of_core)]
 
 mod error;
 pub mod node;
@@ -34,7 +35,7 @@ pub use error::BlobError;
 pub use node::{Axis, Node, NodeKind};
 pub use packet::{Packet, Packet4, Packet8, PacketWidth};
 pub use ray::{Hit, Ray, MISS, OCCLUDED};
-pub use traverse::{CellRay, Closest, SLACK};
+pub use traverse::{CellRay, Closest, TraversalCounts, SLACK};
 pub use tree::{Bounds, TriangleTree, MAX_DEPTH};
 pub use triangle::{
     any_hit_brute, closest_hit_brute, edge_functions_f64, ray_is_valid, ShearedRay, Triangle,

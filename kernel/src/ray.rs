@@ -9,7 +9,8 @@ use glam::Vec3;
 ///
 /// The direction need not be normalised; `t` is measured in its units.
 /// A ray with a non-finite origin, a NaN or infinite or all-zero direction,
-/// a NaN `tmin`/`tmax` or `tmin > tmax` hits nothing (never a panic).
+/// a NaN `tmin`/`tmax` or `tmin > tmax` hits nothing (never a panic), and
+/// every hit has a finite `t` (one that overflows to infinity is no hit).
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 #[repr(C)]
 pub struct Ray {

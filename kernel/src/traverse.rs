@@ -159,12 +159,47 @@ impl CellRay {
     }
 }
 
+/// The work one traversal did: what a heatmap shows and a cost model predicts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TraversalCounts {
+    /// Nodes visited, interior and leaf.
+    pub nodes: u32,
+    /// Ray/triangle tests run.
+    pub triangles: u32,
+}
+
+/// Counts traversal work; `()` counts nothing and compiles away.
+pub(crate) trait Tally {
+    fn node(&mut self);
+    fn triangle(&mut self);
+}
+
+impl Tally for () {
+    #[inline(always)]
+    fn node(&mut self) {}
+    #[inline(always)]
+    fn triangle(&mut self) {}
+}
+
+impl Tally for TraversalCounts {
+    #[inline(always)]
+    fn node(&mut self) {
+        self.nodes = self.nodes.saturating_add(1);
+    }
+    #[inline(always)]
+    fn triangle(&mut self) {
+        self.triangles = self.triangles.saturating_add(1);
+    }
+}
+
 /// A far child waiting on the stack with its interval.
 #[derive(Clone, Copy, Debug, Default)]
 struct Pending {
     node: u32,
-    t0: f32,
-    t1: f32,
+    /// Start of the cell's interval, less the slack.
+    lo: f32,
+    /// End of the cell's interval, plus the slack.
+    hi: f32,
 }
 
 /// What a leaf visitor tells the walk.
@@ -186,6 +221,20 @@ impl<'a> TriangleTree<'a> {
     #[inline]
     #[must_use]
     pub fn closest_hit(&self, ray: &Ray) -> Hit {
+        self.closest_hit_tallied(ray, &mut ())
+    }
+
+    /// [`TriangleTree::closest_hit`], also counting the nodes visited and
+    /// triangles tested (for heatmaps and tuning; a little slower).
+    #[must_use]
+    pub fn closest_hit_counted(&self, ray: &Ray) -> (Hit, TraversalCounts) {
+        let mut counts = TraversalCounts::default();
+        let hit = self.closest_hit_tallied(ray, &mut counts);
+        (hit, counts)
+    }
+
+    #[inline(always)]
+    fn closest_hit_tallied<T: Tally>(&self, ray: &Ray, tally: &mut T) -> Hit {
         let Some(sr) = ShearedRay::new(ray) else {
             return Hit::MISS;
         };
@@ -193,8 +242,34 @@ impl<'a> TriangleTree<'a> {
             return Hit::MISS;
         };
         let mut best = Closest::new(ray.tmax);
-        self.closest_from(&sr, &cr, ray.tmin, &mut best, (0, cr.t0, cr.t1));
+        let start = (0, cr.t0 - cr.slack, cr.t1 + cr.slack);
+        self.closest_from(&sr, &cr, ray.tmin, &mut best, start, tally);
         best.hit()
+    }
+
+    /// The closest-hit search of one ray through the subtree at `start` =
+    /// `(node, lo, hi)` (interval widened by the slack), into `best`;
+    /// triangles are tested over `[tmin, best.t]`. (Packets finish lone
+    /// lanes with it.)
+    #[inline(always)]
+    pub(crate) fn closest_from<T: Tally>(
+        &self,
+        sr: &ShearedRay,
+        cr: &CellRay,
+        tmin: f32,
+        best: &mut Closest,
+        start: (u32, f32, f32),
+        tally: &mut T,
+    ) {
+        self.walk(cr, start, tally, |tris, prims, tally| {
+            for p in prims {
+                if let Some(tri) = tris.get(p as usize) {
+                    tally.triangle();
+                    best.offer(sr, tri, p, tmin);
+                }
+            }
+            Step::Continue(best.t)
+        });
     }
 
     /// Does any triangle hit `ray` in `[tmin, tmax]`? Exactly when
@@ -205,54 +280,48 @@ impl<'a> TriangleTree<'a> {
     #[inline]
     #[must_use]
     pub fn any_hit(&self, ray: &Ray) -> bool {
+        self.any_hit_tallied(ray, &mut ())
+    }
+
+    /// [`TriangleTree::any_hit`], also counting the work done.
+    #[must_use]
+    pub fn any_hit_counted(&self, ray: &Ray) -> (bool, TraversalCounts) {
+        let mut counts = TraversalCounts::default();
+        let hit = self.any_hit_tallied(ray, &mut counts);
+        (hit, counts)
+    }
+
+    #[inline(always)]
+    fn any_hit_tallied<T: Tally>(&self, ray: &Ray, tally: &mut T) -> bool {
         let Some(sr) = ShearedRay::new(ray) else {
             return false;
         };
         let Some(cr) = CellRay::new(ray, &sr, &self.bounds) else {
             return false;
         };
-        self.any_from(&sr, &cr, (ray.tmin, ray.tmax), (0, cr.t0, cr.t1))
-    }
-
-    /// The closest-hit search of one ray through the subtree at `start`
-    /// `(node, t0, t1)`, into `best`; triangles are tested over
-    /// `[tmin, best.t]`. (Packets finish lone lanes with it.)
-    #[inline(always)]
-    pub(crate) fn closest_from(
-        &self,
-        sr: &ShearedRay,
-        cr: &CellRay,
-        tmin: f32,
-        best: &mut Closest,
-        start: (u32, f32, f32),
-    ) {
-        self.walk(cr, start, |tris, prims| {
-            for p in prims {
-                if let Some(tri) = tris.get(p as usize) {
-                    best.offer(sr, tri, p, tmin);
-                }
-            }
-            Step::Continue(best.t)
-        });
+        let start = (0, cr.t0 - cr.slack, cr.t1 + cr.slack);
+        self.any_from(&sr, &cr, (ray.tmin, ray.tmax), start, tally)
     }
 
     /// The any-hit search of one ray over `[tmin, tmax]` through the
-    /// subtree at `start` `(node, t0, t1)`.
+    /// subtree at `start` = `(node, lo, hi)`.
     #[inline(always)]
-    pub(crate) fn any_from(
+    pub(crate) fn any_from<T: Tally>(
         &self,
         sr: &ShearedRay,
         cr: &CellRay,
         (tmin, tmax): (f32, f32),
         start: (u32, f32, f32),
+        tally: &mut T,
     ) -> bool {
         let mut found = false;
-        self.walk(cr, start, |tris, prims| {
+        self.walk(cr, start, tally, |tris, prims, tally| {
             for p in prims {
-                if tris
-                    .get(p as usize)
-                    .is_some_and(|tri| sr.intersect(tri, tmin, tmax).is_some())
-                {
+                let Some(tri) = tris.get(p as usize) else {
+                    continue;
+                };
+                tally.triangle();
+                if sr.intersect(tri, tmin, tmax).is_some() {
                     found = true;
                     return Step::Stop;
                 }
@@ -262,55 +331,67 @@ impl<'a> TriangleTree<'a> {
         found
     }
 
-    /// The traversal loop from `start` = (node, t0, t1). `leaf` is called
-    /// with the triangles and each leaf's primitives, in front-to-back
-    /// order of cells.
+    /// The traversal loop. `leaf` is called with the triangles and each
+    /// leaf's primitives, in front-to-back order of cells.
     #[inline(always)]
-    fn walk<F>(&self, cr: &CellRay, start: (u32, f32, f32), mut leaf: F)
+    fn walk<T, F>(&self, cr: &CellRay, start: (u32, f32, f32), tally: &mut T, mut leaf: F)
     where
-        F: FnMut(&'a [Triangle], LeafIter<'a>) -> Step,
+        T: Tally,
+        F: FnMut(&'a [Triangle], LeafIter<'a>, &mut T) -> Step,
     {
         let s = cr.slack;
+        let s2 = s + s;
         let mut stack = [Pending::default(); MAX_DEPTH as usize];
         let mut sp = 0usize;
-        let (mut node_idx, mut t0, mut t1) = start;
+        let (mut node_idx, mut lo, mut hi) = start;
         loop {
             let Some(&node) = self.nodes.get(node_idx as usize) else {
                 return;
             };
+            tally.node();
             let axis = node.axis_bits();
             if axis < 3 {
                 // Compute parametric distance along ray to split plane.
                 let t_split = (node.split() - cr.org[axis]) * cr.inv[axis];
                 let first = node.upper() + cr.above_first[axis];
                 let second = node.upper() + 1 - cr.above_first[axis];
-                if t_split - s > t1 {
-                    // Plane beyond the interval: near child only.
+                // The near child's cell ends at t_split, the far child's
+                // starts there. Intervals are kept widened by the slack on
+                // both ends ([lo, hi] = [t0 - s, t1 + s]), so the tests take
+                // t_split as computed, off the critical path of the slack add;
+                // a child's new end is t_split + s, widened once more: + 2s.
+                // Written as "not outside" so a NaN t_split (origin on the
+                // plane, direction parallel to it) visits both over the whole
+                // interval.
+                #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must visit: see above
+                let (visit_near, visit_far) = (!(t_split < lo), !(t_split > hi));
+                // Push the far child unconditionally, keep it only when both
+                // children are visited: no branch to mispredict.
+                let Some(slot) = stack.get_mut(sp) else {
+                    return; // deeper than MAX_DEPTH: only an unchecked, invalid blob
+                };
+                let far_lo = lo.max(t_split - s2);
+                *slot = Pending {
+                    node: second,
+                    lo: far_lo,
+                    hi,
+                };
+                if visit_near {
+                    sp += usize::from(visit_far);
                     node_idx = first;
-                } else if t_split + s < t0 {
-                    // Plane before the interval: far child only.
-                    node_idx = second;
+                    hi = hi.min(t_split + s2);
                 } else {
-                    // Both: push the far child, continue with the near one.
-                    let Some(slot) = stack.get_mut(sp) else {
-                        return; // deeper than MAX_DEPTH: only an unchecked, invalid blob
-                    };
-                    *slot = Pending {
-                        node: second,
-                        t0: t0.max(t_split - s),
-                        t1,
-                    };
-                    sp += 1;
-                    node_idx = first;
-                    t1 = t1.min(t_split + s);
+                    node_idx = second;
+                    lo = far_lo;
                 }
                 continue;
             }
             // A leaf: test its triangles against the ray's own interval.
-            // Cells starting after `cutoff` are behind the best hit.
-            let cutoff = match leaf(self.triangles, LeafIter::new(self.leaf_prims(node))) {
+            // Cells starting after `cutoff` (best t + s, widened by s) are
+            // behind the best hit.
+            let cutoff = match leaf(self.triangles, LeafIter::new(self.leaf_prims(node)), tally) {
                 Step::Stop => return,
-                Step::Continue(best_t) => best_t + s,
+                Step::Continue(best_t) => best_t + s2,
             };
             // Advance to the next far cell that can still hold a better hit.
             loop {
@@ -319,8 +400,8 @@ impl<'a> TriangleTree<'a> {
                 }
                 sp -= 1;
                 let p = stack[sp];
-                if p.t0 <= cutoff {
-                    (node_idx, t0, t1) = (p.node, p.t0, p.t1.min(cutoff));
+                if p.lo <= cutoff {
+                    (node_idx, lo, hi) = (p.node, p.lo, p.hi.min(cutoff));
                     break;
                 }
             }

@@ -156,7 +156,9 @@ impl ShearedRay {
         }
         let t_scaled = u * (sz * az) + v * (sz * bz) + w * (sz * cz);
         let t = t_scaled / det;
-        if t >= tmin && t <= tmax {
+        // A hit needs a finite t: with a tiny direction, t can overflow to
+        // infinity, a point no cell interval reaches.
+        if t >= tmin && t <= tmax && t.is_finite() {
             Some(TriangleHit { t, v, w, det })
         } else {
             None
@@ -206,7 +208,9 @@ pub fn any_hit_brute(triangles: &[Triangle], ray: &Ray) -> bool {
 
 #[cfg(test)]
 mod tests {
+    extern crate std;
     use super::*;
+    use std::vec::Vec;
 
     fn tri(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> Triangle {
         Triangle { v: [a, b, c] }
@@ -231,20 +235,54 @@ mod tests {
         assert_eq!((h.t, h.prim, h.u, h.v), (2.0, 0, 0.25, 0.5));
     }
 
-    #[test]
-    fn shared_edge_and_vertex_are_watertight() {
-        // A unit square split along its diagonal; rays straight down through
-        // points of the diagonal and the shared corners must hit one of the two.
-        let tris = [
-            tri([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0]),
-            tri([0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]),
+    /// The 12 triangles of the cube [0, 1]^3: a closed mesh.
+    fn cube() -> [Triangle; 12] {
+        let c = |i: usize| [(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32];
+        let quads = [
+            [0, 1, 3, 2],
+            [4, 6, 7, 5],
+            [0, 4, 5, 1],
+            [2, 3, 7, 6],
+            [0, 2, 6, 4],
+            [1, 5, 7, 3],
         ];
-        for i in 0..=64 {
-            let s = i as f32 / 64.0;
-            for d in [[0.0, 0.0, -1.0], [0.3, -0.2, -1.0], [-1e-3, 1e-3, -1.0]] {
-                let o = [s - d[0] * 3.0, s - d[1] * 3.0, 3.0];
-                let h = closest_hit_brute(&tris, &ray(o, d));
-                assert!(h.is_hit(), "slipped through the diagonal at {s} dir {d:?}");
+        let mut out = [tri(c(0), c(0), c(0)); 12];
+        for (q, quad) in quads.iter().enumerate() {
+            out[2 * q] = tri(c(quad[0]), c(quad[1]), c(quad[2]));
+            out[2 * q + 1] = tri(c(quad[0]), c(quad[2]), c(quad[3]));
+        }
+        out
+    }
+
+    #[test]
+    fn closed_mesh_is_watertight_at_shared_edges_and_vertices() {
+        // From points inside the cube, aim at every vertex, at points along
+        // every edge (shared by two faces, and the face diagonals shared by
+        // two triangles): a ray escaping would be a leak.
+        let mesh = cube();
+        let inside = [[0.5, 0.5, 0.5], [0.3, 0.6, 0.45], [0.123, 0.877, 0.5]];
+        let mut aims = Vec::new();
+        for i in 0..=16 {
+            let s = i as f32 / 16.0;
+            for a in 0..3 {
+                for (p, q) in [(0.0, 0.0), (0.0, 1.0), (1.0, 0.0), (1.0, 1.0)] {
+                    let mut e = [p, q, q];
+                    e[a] = s;
+                    e[(a + 1) % 3] = p;
+                    e[(a + 2) % 3] = q;
+                    aims.push(e);
+                }
+                // Face diagonals.
+                let mut d = [s, s, 0.0];
+                d[2] = if a == 0 { 0.0 } else { 1.0 };
+                aims.push([d[(3 - a) % 3], d[(4 - a) % 3], d[(5 - a) % 3]]);
+            }
+        }
+        for o in inside {
+            for aim in &aims {
+                let d = [aim[0] - o[0], aim[1] - o[1], aim[2] - o[2]];
+                let h = closest_hit_brute(&mesh, &ray(o, d));
+                assert!(h.is_hit(), "leaked from {o:?} towards {aim:?}");
             }
         }
     }
@@ -279,6 +317,21 @@ mod tests {
         assert!(!closest_hit_brute(&[t], &ray([0.0, 0.0, -5.0], [0.0, 0.0, 1.0])).is_hit());
         let line = tri([0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [2.0, 2.0, 0.0]);
         assert!(!closest_hit_brute(&[line], &ray([1.0, 1.0, 1.0], [0.0, 0.0, -1.0])).is_hit());
+    }
+
+    #[test]
+    fn overflowing_t_is_no_hit() {
+        // Found by proptest: a subnormal direction makes t overflow to +inf,
+        // which [inf, inf] would accept but no cell interval reaches.
+        let t = tri([0.0, -1.0, 1.0], [1.0, 1.0, 1.0], [-1.0, 1.0, 1.0]);
+        let r = Ray {
+            origin: [0.0; 3],
+            tmin: f32::INFINITY,
+            dir: [-0.0, -0.0, 2.938_736e-39],
+            tmax: f32::INFINITY,
+        };
+        assert_eq!(closest_hit_brute(&[t], &r), Hit::MISS);
+        assert!(!any_hit_brute(&[t], &r));
     }
 
     #[test]

@@ -83,7 +83,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
         let det = u + v + w;
         let t_scaled = u * (sz * az) + v * (sz * bz) + w * (sz * cz);
         let t = t_scaled / det;
-        hit &= !det.eq(zero) & t.ge(self.tmin) & t.le(tmax);
+        hit &= !det.eq(zero) & t.ge(self.tmin) & t.le(tmax) & t.finite();
         (hit != 0).then_some(LaneHits { hit, t, v, w, det })
     }
 }

@@ -28,6 +28,8 @@ pub(crate) trait Lanes<const N: usize>:
     fn ge(self, rhs: Self) -> u32;
     /// Lanes where `self == rhs`, as a bitmask.
     fn eq(self, rhs: Self) -> u32;
+    /// Lanes whose value is finite, as a bitmask.
+    fn finite(self) -> u32;
     /// `f32::min` lane by lane (a NaN in `rhs` keeps `self`).
     fn min(self, rhs: Self) -> Self;
     /// `f32::max` lane by lane (a NaN in `rhs` keeps `self`).
@@ -72,6 +74,10 @@ macro_rules! impl_lanes {
             #[inline(always)]
             fn eq(self, rhs: Self) -> u32 {
                 self.simd_eq(rhs).to_bitmask()
+            }
+            #[inline(always)]
+            fn finite(self) -> u32 {
+                self.is_finite().to_bitmask()
             }
             #[inline(always)]
             fn min(self, rhs: Self) -> Self {
@@ -141,6 +147,7 @@ mod tests {
             assert_eq!(va.le(vb), bits(|x, y| x <= y));
             assert_eq!(va.ge(vb), bits(|x, y| x >= y));
             assert_eq!(va.eq(vb), bits(|x, y| x == y));
+            assert_eq!(vb.finite(), bits(|_, y| y.is_finite()));
             if !a.is_nan() {
                 // The walk only takes min/max with a non-NaN left operand;
                 // signed zeros may come out either way in both, so compare

@@ -45,7 +45,9 @@ struct Pending<V> {
 trait Visit<'a, V> {
     /// Tests a leaf's primitives against `lanes`.
     fn leaf(&mut self, prims: LeafIter<'a>, lanes: u32) -> Option<(V, u32)>;
-    /// Finishes lane `l` as a single ray through the subtree `(node, t0, t1)`.
+    /// Finishes lane `l` as a single ray through the subtree
+    /// `(node, lo, hi)`, its interval widened by the slack as the scalar
+    /// loop keeps it.
     fn single(&mut self, l: usize, start: (u32, f32, f32)) -> Option<(V, u32)>;
 }
 
@@ -80,7 +82,7 @@ impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for ClosestLanes<'_, 'a, V, N
     fn single(&mut self, l: usize, start: (u32, f32, f32)) -> Option<(V, u32)> {
         if let (Some(Some(one)), Some(best)) = (self.lr.single.get(l), self.best.get_mut(l)) {
             self.tree
-                .closest_from(&one.sr, &one.cr, one.tmin, best, start);
+                .closest_from(&one.sr, &one.cr, one.tmin, best, start, &mut ());
             self.best_t = V::from_array(self.best.map(|b| b.t));
         }
         Some((self.best_t, self.lr.active))
@@ -124,7 +126,7 @@ impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for AnyLanes<'_, 'a, V, N> {
         if let Some(Some(one)) = self.lr.single.get(l) {
             if self
                 .tree
-                .any_from(&one.sr, &one.cr, (one.tmin, one.tmax), start)
+                .any_from(&one.sr, &one.cr, (one.tmin, one.tmax), start, &mut ())
             {
                 self.occluded |= 1 << l;
             }
@@ -198,7 +200,7 @@ impl<'a> TriangleTree<'a> {
             let step = if lanes.count_ones() <= FEW_LANES {
                 // Few lanes left in this subtree: a packet step would
                 // cost as much as several single-ray steps.
-                let (lo, hi) = (t0.to_array(), t1.to_array());
+                let (lo, hi) = ((t0 - s).to_array(), (t1 + s).to_array());
                 let mut step = None;
                 for l in 0..N {
                     if lanes >> l & 1 == 1 {

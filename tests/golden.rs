@@ -1,0 +1,47 @@
+//! Golden blobs: format version 1 keeps loading, embedded the way an
+//! engine embeds it (`include_aligned!`), and answers exactly.
+
+use kdray::kernel::{closest_hit_brute, include_aligned, Aligned, Ray, TriangleTree};
+use kdray::tools::rng::Rng;
+
+static CUBE_V1: &Aligned<[u8]> = include_aligned!("golden/cube-v1.kdt");
+
+fn rays() -> Vec<Ray> {
+    let mut rng = Rng::new(9);
+    (0..2000)
+        .map(|_| Ray {
+            origin: std::array::from_fn(|_| rng.range(0.01, 0.99)),
+            tmin: 0.0,
+            dir: rng.unit_vector(),
+            tmax: f32::INFINITY,
+        })
+        .collect()
+}
+
+#[test]
+fn v1_blob_loads_in_place_and_answers_exactly() {
+    let tree = TriangleTree::from_bytes(&CUBE_V1.bytes).expect("golden v1 blob loads");
+    assert_eq!(tree.triangles().len(), 14);
+    let mut hits = 0;
+    for r in rays() {
+        let want = closest_hit_brute(tree.triangles(), &r);
+        assert_eq!(tree.closest_hit(&r).bits(), want.bits(), "{r:?}");
+        hits += usize::from(want.is_hit());
+    }
+    // Every ray starts inside the closed cube: none may escape.
+    assert_eq!(hits, 2000);
+}
+
+#[test]
+fn unchecked_loading_gives_the_same_answers() {
+    let checked = TriangleTree::from_bytes(&CUBE_V1.bytes).unwrap();
+    // SAFETY: the same bytes passed `from_bytes` just above.
+    let unchecked = unsafe { TriangleTree::from_bytes_unchecked(&CUBE_V1.bytes) }.unwrap();
+    for r in rays() {
+        assert_eq!(
+            checked.closest_hit(&r).bits(),
+            unchecked.closest_hit(&r).bits()
+        );
+        assert_eq!(checked.any_hit(&r), unchecked.any_hit(&r));
+    }
+}

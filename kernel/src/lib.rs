@@ -28,6 +28,7 @@
 
 mod error;
 pub mod node;
+pub mod packet;
 mod points;
 mod ray;
 mod traverse;
@@ -37,6 +38,7 @@ pub mod wire;
 
 pub use error::BlobError;
 pub use node::{Axis, Node, NodeKind};
+pub use packet::{Packet, Packet4, Packet8, PacketWidth};
 pub use points::{
     distance2, knn_brute, nearest_brute, within_brute, BufferTooSmall, Neighbour, PointTree,
 };

@@ -65,12 +65,19 @@ impl Closest {
     #[inline(always)]
     pub fn offer(&mut self, sr: &ShearedRay, tri: &Triangle, prim: u32, tmin: f32) {
         if let Some(h) = sr.intersect(tri, tmin, self.t) {
-            // h.t <= self.t here, so equal t is the only other case.
-            if h.t < self.t || prim < self.prim {
-                self.t = h.t;
-                self.prim = prim;
-                self.hit = Some(h);
-            }
+            self.keep(h, prim);
+        }
+    }
+
+    /// Keeps hit `h` of triangle `prim` if it wins; `h` was found over
+    /// `[tmin, self.t]` (packet lanes call this with their own test's hits).
+    #[inline(always)]
+    pub(crate) fn keep(&mut self, h: TriangleHit, prim: u32) {
+        // h.t <= self.t here, so equal t is the only other case.
+        if h.t < self.t || prim < self.prim {
+            self.t = h.t;
+            self.prim = prim;
+            self.hit = Some(h);
         }
     }
 
@@ -231,17 +238,38 @@ impl<'a> TriangleTree<'a> {
         let Some(sr) = ShearedRay::new(ray) else {
             return Hit::MISS;
         };
+        let Some(cr) = CellRay::new(ray, &sr, &self.bounds) else {
+            return Hit::MISS;
+        };
         let mut best = Closest::new(ray.tmax);
-        self.walk(ray, &sr, tally, |tris, prims, tally| {
+        let start = (0, cr.t0 - cr.slack, cr.t1 + cr.slack);
+        self.closest_from(&sr, &cr, ray.tmin, &mut best, start, tally);
+        best.hit()
+    }
+
+    /// The closest-hit search of one ray through the subtree at `start` =
+    /// `(node, lo, hi)` (interval widened by the slack), into `best`;
+    /// triangles are tested over `[tmin, best.t]`. (Packets finish lone
+    /// lanes with it.)
+    #[inline(always)]
+    pub(crate) fn closest_from<T: Tally>(
+        &self,
+        sr: &ShearedRay,
+        cr: &CellRay,
+        tmin: f32,
+        best: &mut Closest,
+        start: (u32, f32, f32),
+        tally: &mut T,
+    ) {
+        self.walk(cr, start, tally, |tris, prims, tally| {
             for p in prims {
                 if let Some(tri) = tris.get(p as usize) {
                     tally.triangle();
-                    best.offer(&sr, tri, p, ray.tmin);
+                    best.offer(sr, tri, p, tmin);
                 }
             }
             Step::Continue(best.t)
         });
-        best.hit()
     }
 
     /// Does any triangle hit `ray` in `[tmin, tmax]`? Exactly when
@@ -268,19 +296,37 @@ impl<'a> TriangleTree<'a> {
         let Some(sr) = ShearedRay::new(ray) else {
             return false;
         };
+        let Some(cr) = CellRay::new(ray, &sr, &self.bounds) else {
+            return false;
+        };
+        let start = (0, cr.t0 - cr.slack, cr.t1 + cr.slack);
+        self.any_from(&sr, &cr, (ray.tmin, ray.tmax), start, tally)
+    }
+
+    /// The any-hit search of one ray over `[tmin, tmax]` through the
+    /// subtree at `start` = `(node, lo, hi)`.
+    #[inline(always)]
+    pub(crate) fn any_from<T: Tally>(
+        &self,
+        sr: &ShearedRay,
+        cr: &CellRay,
+        (tmin, tmax): (f32, f32),
+        start: (u32, f32, f32),
+        tally: &mut T,
+    ) -> bool {
         let mut found = false;
-        self.walk(ray, &sr, tally, |tris, prims, tally| {
+        self.walk(cr, start, tally, |tris, prims, tally| {
             for p in prims {
                 let Some(tri) = tris.get(p as usize) else {
                     continue;
                 };
                 tally.triangle();
-                if sr.intersect(tri, ray.tmin, ray.tmax).is_some() {
+                if sr.intersect(tri, tmin, tmax).is_some() {
                     found = true;
                     return Step::Stop;
                 }
             }
-            Step::Continue(ray.tmax)
+            Step::Continue(tmax)
         });
         found
     }
@@ -288,19 +334,16 @@ impl<'a> TriangleTree<'a> {
     /// The traversal loop. `leaf` is called with the triangles and each
     /// leaf's primitives, in front-to-back order of cells.
     #[inline(always)]
-    fn walk<T, F>(&self, ray: &Ray, sr: &ShearedRay, tally: &mut T, mut leaf: F)
+    fn walk<T, F>(&self, cr: &CellRay, start: (u32, f32, f32), tally: &mut T, mut leaf: F)
     where
         T: Tally,
         F: FnMut(&'a [Triangle], LeafIter<'a>, &mut T) -> Step,
     {
-        let Some(cr) = CellRay::new(ray, sr, &self.bounds) else {
-            return;
-        };
         let s = cr.slack;
         let s2 = s + s;
         let mut stack = [Pending::default(); MAX_DEPTH as usize];
         let mut sp = 0usize;
-        let (mut node_idx, mut lo, mut hi) = (0u32, cr.t0 - s, cr.t1 + s);
+        let (mut node_idx, mut lo, mut hi) = start;
         loop {
             let Some(&node) = self.nodes.get(node_idx as usize) else {
                 return;
@@ -374,7 +417,7 @@ pub(crate) enum LeafIter<'a> {
 
 impl<'a> LeafIter<'a> {
     #[inline(always)]
-    fn new(p: LeafPrims<'a>) -> Self {
+    pub(crate) fn new(p: LeafPrims<'a>) -> Self {
         match p {
             LeafPrims::One(p) => LeafIter::One(Some(p)),
             LeafPrims::Run(r) => LeafIter::Run(r.iter()),

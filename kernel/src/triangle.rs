@@ -58,11 +58,11 @@ pub struct TriangleHit {
     /// Ray parameter of the hit.
     pub t: f32,
     /// Edge function weighting vertex 1.
-    v: f32,
+    pub(crate) v: f32,
     /// Edge function weighting vertex 2.
-    w: f32,
+    pub(crate) w: f32,
     /// Sum of the three edge functions.
-    det: f32,
+    pub(crate) det: f32,
 }
 
 impl TriangleHit {

@@ -1,0 +1,250 @@
+//! Fuzz properties over arbitrary bytes. Decoding never fails: missing
+//! bytes read as zero, so every input is a test case.
+//!
+//! - [`blob`]: arbitrary bytes, or a valid header (correct checksum) and
+//!   arbitrary sections: `from_bytes` returns an error or a view, and with
+//!   a view tracing rays (single and packets) never panics.
+//! - [`packet_vs_single`]: a small scene, coordinates mostly on a coarse
+//!   grid (hits on edges, vertices and split planes) plus raw floats;
+//!   packets of hostile rays with inactive lanes: lanes == single rays.
+//! - [`tree_vs_brute`]: the same scenes with every builder: the tree's
+//!   closest hit is the brute-force one bit for bit, any hit agrees.
+
+use kdray::kernel::wire::{blob_checksum, Header, ENDIAN_CHECK, KIND_TRIANGLES, MAGIC, VERSION};
+use kdray::kernel::{
+    any_hit_brute, closest_hit_brute, Hit, Packet, Packet4, Packet8, Ray, Triangle, TriangleTree,
+};
+use kdray::tools::blob::{write_triangle_tree, Blob};
+use kdray::tools::build::{build, BuildParams, BuilderKind};
+
+/// Reads the fuzz input front to back; zeros past its end.
+pub struct Bytes<'a> {
+    data: &'a [u8],
+}
+
+impl<'a> Bytes<'a> {
+    /// A reader over `data`.
+    pub fn new(data: &'a [u8]) -> Self {
+        Bytes { data }
+    }
+
+    /// The next byte.
+    pub fn u8(&mut self) -> u8 {
+        let (&b, rest) = self.data.split_first().unwrap_or((&0, &[]));
+        self.data = rest;
+        b
+    }
+
+    /// The next four bytes, little-endian.
+    pub fn u32(&mut self) -> u32 {
+        u32::from_le_bytes([self.u8(), self.u8(), self.u8(), self.u8()])
+    }
+
+    /// What is left.
+    pub fn rest(&self) -> &'a [u8] {
+        self.data
+    }
+
+    /// A vertex coordinate: mostly a multiple of 1/4 in [-8, 8), else raw
+    /// finite bits (non-finite raw values become 0: builders refuse them).
+    pub fn coord(&mut self) -> f32 {
+        let b = self.u8();
+        if b < 224 {
+            (f32::from(b % 64) - 32.0) / 4.0
+        } else {
+            let x = f32::from_bits(self.u32());
+            if x.is_finite() {
+                x
+            } else {
+                0.0
+            }
+        }
+    }
+
+    /// A ray component: grid values, the special values (NaN, ±0, ±inf,
+    /// subnormals, extremes) or raw bits.
+    pub fn component(&mut self) -> f32 {
+        const SPECIAL: [f32; 12] = [
+            0.0,
+            -0.0,
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            1e-45,
+            -1e-45,
+            1e-39,
+            f32::MIN_POSITIVE,
+            f32::MAX,
+            f32::MIN,
+            1.0,
+        ];
+        let b = self.u8();
+        match b {
+            0..=159 => (f32::from(b % 80) - 40.0) / 4.0,
+            160..=223 => SPECIAL[usize::from(b) % SPECIAL.len()],
+            _ => f32::from_bits(self.u32()),
+        }
+    }
+
+    /// A ray; `tmin`/`tmax` mostly `[0, inf]`.
+    pub fn ray(&mut self) -> Ray {
+        let origin = [self.component(), self.component(), self.component()];
+        let dir = [self.component(), self.component(), self.component()];
+        let range = self.u8();
+        let (tmin, tmax) = if range < 192 {
+            (0.0, f32::INFINITY)
+        } else {
+            (self.component(), self.component())
+        };
+        Ray {
+            origin,
+            tmin,
+            dir,
+            tmax,
+        }
+    }
+
+    /// Up to 24 triangles.
+    pub fn scene(&mut self) -> Vec<Triangle> {
+        let n = usize::from(self.u8() % 24) + 1;
+        (0..n)
+            .map(|_| Triangle {
+                v: std::array::from_fn(|_| std::array::from_fn(|_| self.coord())),
+            })
+            .collect()
+    }
+
+    /// A packet: a lane mask byte, then the active lanes' rays.
+    pub fn packet<const N: usize>(&mut self) -> Packet<N> {
+        let mask = self.u8();
+        let mut p = Packet::EMPTY;
+        for l in 0..N {
+            if mask >> l & 1 == 1 {
+                p.set_ray(l, &self.ray());
+            }
+        }
+        p
+    }
+}
+
+/// Blob loading and tracing never panic.
+pub fn blob(data: &[u8]) {
+    let mut r = Bytes::new(data);
+    let bytes = if r.u8() & 1 == 0 {
+        r.rest().to_vec()
+    } else {
+        // A header the loader accepts up to the sections' contents.
+        let (node_count, index_count, item_count) = (r.u8(), r.u8(), r.u8());
+        let max_depth = u32::from(r.u8() % 72);
+        let bounds_min = [r.coord(), r.coord(), r.coord()];
+        let bounds_max = [r.coord(), r.coord(), r.coord()];
+        let body = r.rest();
+        let header = Header {
+            magic: MAGIC,
+            endian: ENDIAN_CHECK,
+            version: VERSION,
+            kind: KIND_TRIANGLES,
+            max_depth,
+            node_count: u32::from(node_count),
+            index_count: u32::from(index_count),
+            item_count: u32::from(item_count),
+            checksum: 0,
+            bounds_min,
+            bounds_max,
+        };
+        let mut b = bytemuck::bytes_of(&header).to_vec();
+        b.extend_from_slice(body);
+        // The checksum covers the whole blob, its own field read as zero.
+        let sum = Header {
+            checksum: blob_checksum(&b),
+            ..header
+        };
+        b[..64].copy_from_slice(bytemuck::bytes_of(&sum));
+        b
+    };
+    let blob = Blob::from_bytes(&bytes);
+    let Ok(tree) = TriangleTree::from_bytes(blob.as_bytes()) else {
+        return;
+    };
+    // Rays from the body's bytes (the tail doubles as ray data).
+    let mut rays = Bytes::new(&bytes[bytes.len().min(64)..]);
+    for _ in 0..8 {
+        let ray = rays.ray();
+        let _ = (tree.closest_hit(&ray), tree.any_hit(&ray));
+        let p: Packet8 = rays.packet();
+        let _ = (
+            tree.closest_hit8(&p),
+            tree.any_hit4(&Packet4::from_rays(&[ray])),
+        );
+    }
+}
+
+/// Builds `tris` with `kind`; `None` when the builder refuses them.
+fn blob_of(tris: &[Triangle], kind: BuilderKind) -> Option<Blob> {
+    let built = build(tris, kind, &BuildParams::default()).ok()?;
+    Some(write_triangle_tree(&built, tris))
+}
+
+fn assert_lanes<const N: usize>(
+    tree: &TriangleTree,
+    p: &Packet<N>,
+    hits: [Hit; N],
+    any: [bool; N],
+) {
+    for l in 0..N {
+        let r = p.ray(l);
+        let (want, want_any) = match p.valid[l] {
+            true => (tree.closest_hit(&r), tree.any_hit(&r)),
+            false => (Hit::MISS, false),
+        };
+        assert_eq!(
+            hits[l].bits(),
+            want.bits(),
+            "closest, lane {l} of {N}: {r:?}"
+        );
+        assert_eq!(any[l], want_any, "any, lane {l} of {N}: {r:?}");
+    }
+}
+
+/// Every lane of every packet equals its single ray, bitwise.
+pub fn packet_vs_single(data: &[u8]) {
+    let mut r = Bytes::new(data);
+    let tris = r.scene();
+    let Some(blob) = blob_of(&tris, BuilderKind::default()) else {
+        return;
+    };
+    let tree = blob.tree().expect("the builder's blob validates");
+    while !r.rest().is_empty() {
+        if r.u8() & 1 == 0 {
+            let p: Packet8 = r.packet();
+            assert_lanes(&tree, &p, tree.closest_hit8(&p), tree.any_hit8(&p));
+        } else {
+            let p: Packet4 = r.packet();
+            assert_lanes(&tree, &p, tree.closest_hit4(&p), tree.any_hit4(&p));
+        }
+    }
+}
+
+/// The tree of every builder answers as brute force, bitwise.
+pub fn tree_vs_brute(data: &[u8]) {
+    let mut r = Bytes::new(data);
+    let tris = r.scene();
+    let blobs: Vec<(BuilderKind, Blob)> = BuilderKind::ALL
+        .iter()
+        .filter_map(|&k| Some((k, blob_of(&tris, k)?)))
+        .collect();
+    let trees: Vec<(BuilderKind, TriangleTree)> = blobs
+        .iter()
+        .map(|(k, b)| (*k, b.tree().expect("the builder's blob validates")))
+        .collect();
+    while !r.rest().is_empty() {
+        let ray = r.ray();
+        let want = closest_hit_brute(&tris, &ray);
+        let want_any = any_hit_brute(&tris, &ray);
+        for (kind, tree) in &trees {
+            let got = tree.closest_hit(&ray);
+            assert_eq!(got.bits(), want.bits(), "{kind:?}: {ray:?} {tris:?}");
+            assert_eq!(tree.any_hit(&ray), want_any, "{kind:?} any: {ray:?}");
+        }
+    }
+}

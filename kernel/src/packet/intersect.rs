@@ -1,0 +1,107 @@
+//! The watertight test of one triangle against all lanes: the lane-wise
+//! twin of [`ShearedRay::intersect`](crate::ShearedRay::intersect), the
+//! same operations in the same order (no FMA, true division), so each
+//! lane's `t`, edge functions and determinant are the single ray's bits.
+//! Lanes whose `f32` edge function is exactly zero are recomputed by the
+//! scalar [`edge_functions_f64`], as the single ray does.
+
+use super::lane_rays::LaneRays;
+use super::lanes::Lanes;
+use crate::triangle::{edge_functions_f64, Triangle, TriangleHit};
+
+/// The lanes a triangle hits, with the unreduced hit of each lane.
+pub(crate) struct LaneHits<V> {
+    /// Lanes hit within `[tmin, tmax]` (bitmask).
+    pub(crate) hit: u32,
+    t: V,
+    v: V,
+    w: V,
+    det: V,
+}
+
+impl<V> LaneHits<V> {
+    /// The scalar hit record of lane `l` (meaningful where `hit` has it).
+    #[inline]
+    pub(crate) fn lane<const N: usize>(&self, l: usize) -> TriangleHit
+    where
+        V: Lanes<N>,
+    {
+        let at = |x: V| x.to_array().get(l).copied().unwrap_or(f32::NAN);
+        TriangleHit {
+            t: at(self.t),
+            v: at(self.v),
+            w: at(self.w),
+            det: at(self.det),
+        }
+    }
+}
+
+impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
+    /// Vertex `p` relative to each lane's origin, sheared so the lane's
+    /// ray runs along +z: `(q[kx] - sx q[kz], q[ky] - sy q[kz], q[kz])`.
+    #[inline(always)]
+    fn shear_vertex(&self, p: [f32; 3]) -> (V, V, V) {
+        // p[k[j]] per lane; the subtraction is then the scalar q[k[j]].
+        let pk = |j: usize| match self.k_uniform {
+            Some(k) => V::splat(p[k[j]]),
+            None => {
+                let [is0, is1] = self.k_is[j];
+                let [x, y, z] = p.map(V::splat);
+                V::select(is0, x, V::select(is1, y, z))
+            }
+        };
+        let qx = pk(0) - self.org_k[0];
+        let qy = pk(1) - self.org_k[1];
+        let qz = pk(2) - self.org_k[2];
+        (qx - self.shear[0] * qz, qy - self.shear[1] * qz, qz)
+    }
+
+    /// Tests `tri` against the lanes in `live` over each lane's
+    /// `[tmin, tmax]`; `None` when it hits none of them.
+    #[inline(always)]
+    pub(crate) fn intersect(&self, tri: &Triangle, live: u32, tmax: V) -> Option<LaneHits<V>> {
+        let sz = self.shear[2];
+        let (ax, ay, az) = self.shear_vertex(tri.v[0]);
+        let (bx, by, bz) = self.shear_vertex(tri.v[1]);
+        let (cx, cy, cz) = self.shear_vertex(tri.v[2]);
+        // 2-D edge functions: u weighs vertex 0, v vertex 1, w vertex 2.
+        let mut u = cx * by - cy * bx;
+        let mut v = ax * cy - ay * cx;
+        let mut w = bx * ay - by * ax;
+        let zero = V::splat(0.0);
+        let exact_zero = (u.eq(zero) | v.eq(zero) | w.eq(zero)) & live;
+        if exact_zero != 0 {
+            [u, v, w] = f64_fixup(exact_zero, [u, v, w], [ax, ay, bx, by, cx, cy]);
+        }
+        // Edge functions of both signs: the ray passes outside.
+        let neg = u.lt(zero) | v.lt(zero) | w.lt(zero);
+        let pos = u.gt(zero) | v.gt(zero) | w.gt(zero);
+        let mut hit = live & !(neg & pos);
+        if hit == 0 {
+            return None;
+        }
+        let det = u + v + w;
+        let t_scaled = u * (sz * az) + v * (sz * bz) + w * (sz * cz);
+        let t = t_scaled / det;
+        // As the scalar test: a zero or overflowed determinant is no hit.
+        hit &= !det.eq(zero) & det.finite() & t.ge(self.tmin) & t.le(tmax) & t.finite();
+        (hit != 0).then_some(LaneHits { hit, t, v, w, det })
+    }
+}
+
+/// Recomputes the edge functions of the lanes in `lanes` in `f64`.
+#[cold]
+#[inline(never)]
+fn f64_fixup<V: Lanes<N>, const N: usize>(lanes: u32, uvw: [V; 3], p: [V; 6]) -> [V; 3] {
+    let mut uvw = uvw.map(V::to_array);
+    let p = p.map(V::to_array);
+    for l in 0..N {
+        if lanes >> l & 1 == 1 {
+            let e = edge_functions_f64(p.map(|c| c[l]));
+            for (f, x) in uvw.iter_mut().zip(e) {
+                f[l] = x;
+            }
+        }
+    }
+    uvw.map(V::from_array)
+}

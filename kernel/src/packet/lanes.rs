@@ -1,0 +1,177 @@
+//! The few lane operations the packet code needs, over `wide`'s `f32x4`
+//! and `f32x8`, so one generic walk serves both widths.
+//!
+//! Only exact IEEE operations are exposed: `+ - * /` (true division, never
+//! `recip`), comparisons, and the NaN-fixing `min`/`max` whose NaN rule is
+//! `f32::min`/`f32::max`'s (a NaN operand yields the other one). No fused
+//! multiply-add: each lane rounds exactly where the scalar code does.
+//! Masks are lane vectors with all bits set or clear, as `wide` returns
+//! them; control flow reads them as bitmasks (bit `l` = lane `l`).
+
+use core::ops::{Add, Div, Mul, Sub};
+use wide::{f32x4, f32x8};
+
+/// A vector of `N` `f32` lanes.
+pub(crate) trait Lanes<const N: usize>:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self>
+{
+    fn splat(x: f32) -> Self;
+    fn from_array(a: [f32; N]) -> Self;
+    fn to_array(self) -> [f32; N];
+    /// Lanes where `self < rhs`, as a bitmask.
+    fn lt(self, rhs: Self) -> u32;
+    /// Lanes where `self > rhs`, as a bitmask.
+    fn gt(self, rhs: Self) -> u32;
+    /// Lanes where `self <= rhs`, as a bitmask.
+    fn le(self, rhs: Self) -> u32;
+    /// Lanes where `self >= rhs`, as a bitmask.
+    fn ge(self, rhs: Self) -> u32;
+    /// Lanes where `self == rhs`, as a bitmask.
+    fn eq(self, rhs: Self) -> u32;
+    /// Lanes whose value is finite, as a bitmask.
+    fn finite(self) -> u32;
+    /// `f32::min` lane by lane (a NaN in `rhs` keeps `self`).
+    fn min(self, rhs: Self) -> Self;
+    /// `f32::max` lane by lane (a NaN in `rhs` keeps `self`).
+    fn max(self, rhs: Self) -> Self;
+    /// `if_true` where `mask` (a lane mask from [`Lanes::mask`]) is set.
+    fn select(mask: Self, if_true: Self, if_false: Self) -> Self;
+    /// The lane mask of a bitmask.
+    fn mask(bits: u32) -> Self;
+}
+
+macro_rules! impl_lanes {
+    ($v:ty, $n:literal) => {
+        impl Lanes<$n> for $v {
+            #[inline(always)]
+            fn splat(x: f32) -> Self {
+                <$v>::splat(x)
+            }
+            #[inline(always)]
+            fn from_array(a: [f32; $n]) -> Self {
+                <$v>::new(a)
+            }
+            #[inline(always)]
+            fn to_array(self) -> [f32; $n] {
+                <$v>::to_array(self)
+            }
+            #[inline(always)]
+            fn lt(self, rhs: Self) -> u32 {
+                self.simd_lt(rhs).to_bitmask()
+            }
+            #[inline(always)]
+            fn gt(self, rhs: Self) -> u32 {
+                self.simd_gt(rhs).to_bitmask()
+            }
+            #[inline(always)]
+            fn le(self, rhs: Self) -> u32 {
+                self.simd_le(rhs).to_bitmask()
+            }
+            #[inline(always)]
+            fn ge(self, rhs: Self) -> u32 {
+                self.simd_ge(rhs).to_bitmask()
+            }
+            #[inline(always)]
+            fn eq(self, rhs: Self) -> u32 {
+                self.simd_eq(rhs).to_bitmask()
+            }
+            #[inline(always)]
+            fn finite(self) -> u32 {
+                self.is_finite().to_bitmask()
+            }
+            #[inline(always)]
+            fn min(self, rhs: Self) -> Self {
+                <$v>::min(self, rhs)
+            }
+            #[inline(always)]
+            fn max(self, rhs: Self) -> Self {
+                <$v>::max(self, rhs)
+            }
+            #[inline(always)]
+            fn select(mask: Self, if_true: Self, if_false: Self) -> Self {
+                mask.select(if_true, if_false)
+            }
+            #[inline(always)]
+            fn mask(bits: u32) -> Self {
+                let all = f32::from_bits(u32::MAX);
+                <$v>::new(core::array::from_fn(|l| {
+                    if bits >> l & 1 == 1 {
+                        all
+                    } else {
+                        0.0
+                    }
+                }))
+            }
+        }
+    };
+}
+
+impl_lanes!(f32x4, 4);
+impl_lanes!(f32x8, 8);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SPECIAL: [f32; 8] = [
+        f32::NAN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        -0.0,
+        0.0,
+        f32::MAX,
+        f32::MIN_POSITIVE / 4.0,
+        -1.5,
+    ];
+
+    fn check<V: Lanes<8>>() {
+        // Every pair of special values, lane by lane, against the scalar op.
+        for a in SPECIAL {
+            let va = V::splat(a);
+            let vb = V::from_array(SPECIAL);
+            // Bits, with every NaN alike: NaN payloads may differ between
+            // a const-folded scalar op and the hardware, and no NaN ever
+            // reaches a hit record (it fails the `t` range test).
+            let canon = |x: f32| if x.is_nan() { u32::MAX } else { x.to_bits() };
+            let r = |v: V| v.to_array().map(canon);
+            let s = |f: fn(f32, f32) -> f32| SPECIAL.map(|b| canon(f(a, b)));
+            assert_eq!(r(va + vb), s(|x, y| x + y));
+            assert_eq!(r(va - vb), s(|x, y| x - y));
+            assert_eq!(r(va * vb), s(|x, y| x * y));
+            assert_eq!(r(va / vb), s(|x, y| x / y));
+            let bits = |f: fn(f32, f32) -> bool| {
+                (0..8).fold(0, |m, l| m | (u32::from(f(a, SPECIAL[l])) << l))
+            };
+            assert_eq!(va.lt(vb), bits(|x, y| x < y));
+            assert_eq!(va.gt(vb), bits(|x, y| x > y));
+            assert_eq!(va.le(vb), bits(|x, y| x <= y));
+            assert_eq!(va.ge(vb), bits(|x, y| x >= y));
+            assert_eq!(va.eq(vb), bits(|x, y| x == y));
+            assert_eq!(vb.finite(), bits(|_, y| y.is_finite()));
+            if !a.is_nan() {
+                // The walk only takes min/max with a non-NaN left operand;
+                // signed zeros may come out either way in both, so compare
+                // values (and NaN-ness) rather than bits there.
+                let same = |v: V, f: fn(f32, f32) -> f32| {
+                    for (l, x) in v.to_array().into_iter().enumerate() {
+                        let y = f(a, SPECIAL[l]);
+                        assert!(x == y || (x.is_nan() && y.is_nan()), "{a} {}", SPECIAL[l]);
+                    }
+                };
+                same(va.min(vb), f32::min);
+                same(va.max(vb), f32::max);
+            }
+        }
+        let m = V::mask(0b1010_0110);
+        let pick = V::select(m, V::splat(1.0), V::splat(2.0)).to_array();
+        assert_eq!(pick, [2.0, 1.0, 1.0, 2.0, 2.0, 1.0, 2.0, 1.0]);
+    }
+
+    #[test]
+    fn lanes_match_scalar_ops_bitwise() {
+        check::<f32x8>();
+        // The 4-wide type through two halves.
+        let lo = f32x4::new([1.0, -0.0, f32::NAN, 3.0]);
+        assert_eq!(lo.lt(f32x4::splat(2.0)), 0b0011);
+    }
+}

@@ -1,0 +1,291 @@
+//! Ray packets: 4 or 8 rays traced together through one walk of the tree,
+//! each lane answering exactly as its single ray would, bit for bit.
+//!
+//! - [`Packet`] holds the rays in structure-of-arrays layout with a
+//!   `valid` flag per lane (inactive lanes miss); build one from rays
+//!   ([`Packet::from_rays`]) or glam vectors ([`Packet::from_vec3`]).
+//! - [`TriangleTree::closest_hit4`] / [`closest_hit8`](TriangleTree::closest_hit8)
+//!   and [`any_hit4`](TriangleTree::any_hit4) / [`any_hit8`](TriangleTree::any_hit8)
+//!   trace one packet with `wide`'s `f32x4` / `f32x8`.
+//! - [`TriangleTree::closest_hits`] and [`TriangleTree::any_hits`] take a
+//!   slice of rays and form packets of consecutive rays themselves.
+//! - [`TriangleTree::closest_hit_lanes`] / [`any_hit_lanes`](TriangleTree::any_hit_lanes)
+//!   are the scalar path (one single ray per lane), always compiled; the
+//!   `scalar-packets` feature makes every packet entry point take it.
+//!
+//! # Exactness
+//! Each lane starts from the single ray's own prepared numbers
+//! ([`ShearedRay`](crate::ShearedRay), [`CellRay`](crate::CellRay)), runs
+//! the same triangle test in lanes (same operations, same order, no FMA,
+//! no approximate reciprocal, the same `f64` fallback) and keeps hits by
+//! the same [`Closest`](crate::Closest) rule; the walk follows the single
+//! ray's slack rules per lane (`walk.rs` explains why visiting a cell out
+//! of order or a few extra cells cannot change an answer).
+
+mod intersect;
+mod lane_rays;
+mod lanes;
+mod walk;
+
+use crate::ray::{Hit, Ray};
+use crate::tree::TriangleTree;
+use glam::Vec3;
+use lane_rays::LaneRays;
+use wide::{f32x4, f32x8};
+
+/// `N` rays in structure-of-arrays layout, with a valid flag per lane.
+///
+/// Lane `l` is the ray `origin[.][l] + t * dir[.][l]` over
+/// `[tmin[l], tmax[l]]`; a lane with `valid[l] == false` is not traced and
+/// reports a miss.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Packet<const N: usize> {
+    /// Origin x, y, z, each for all lanes.
+    pub origin: [[f32; N]; 3],
+    /// Direction x, y, z, each for all lanes.
+    pub dir: [[f32; N]; 3],
+    /// Start of each lane's interval.
+    pub tmin: [f32; N],
+    /// End of each lane's interval.
+    pub tmax: [f32; N],
+    /// Which lanes are traced.
+    pub valid: [bool; N],
+}
+
+/// A packet of 4 rays (`f32x4` lanes).
+pub type Packet4 = Packet<4>;
+/// A packet of 8 rays (`f32x8` lanes).
+pub type Packet8 = Packet<8>;
+
+impl<const N: usize> Packet<N> {
+    /// A packet with every lane inactive.
+    pub const EMPTY: Packet<N> = Packet {
+        origin: [[0.0; N]; 3],
+        dir: [[0.0; N]; 3],
+        tmin: [0.0; N],
+        tmax: [0.0; N],
+        valid: [false; N],
+    };
+
+    /// The first `N` rays of `rays` in lanes `0..`; lanes past the end of
+    /// `rays` are inactive.
+    #[inline]
+    #[must_use]
+    pub fn from_rays(rays: &[Ray]) -> Packet<N> {
+        let mut p = Packet::EMPTY;
+        for (l, ray) in rays.iter().take(N).enumerate() {
+            p.set_ray(l, ray);
+        }
+        p
+    }
+
+    /// All lanes active, over the common interval `[tmin, tmax]`.
+    #[inline]
+    #[must_use]
+    pub fn from_vec3(origins: [Vec3; N], dirs: [Vec3; N], tmin: f32, tmax: f32) -> Packet<N> {
+        Packet {
+            origin: core::array::from_fn(|a| origins.map(|o| o[a])),
+            dir: core::array::from_fn(|a| dirs.map(|d| d[a])),
+            tmin: [tmin; N],
+            tmax: [tmax; N],
+            valid: [true; N],
+        }
+    }
+
+    /// Lane `lane` as a ray (an all-zero ray for `lane >= N`).
+    #[inline]
+    #[must_use]
+    pub fn ray(&self, lane: usize) -> Ray {
+        let at = |x: &[f32; N]| x.get(lane).copied().unwrap_or(0.0);
+        Ray {
+            origin: self.origin.each_ref().map(at),
+            tmin: at(&self.tmin),
+            dir: self.dir.each_ref().map(at),
+            tmax: at(&self.tmax),
+        }
+    }
+
+    /// Puts `ray` in lane `lane` and activates it (nothing for `lane >= N`).
+    #[inline]
+    pub fn set_ray(&mut self, lane: usize, ray: &Ray) {
+        if lane >= N {
+            return;
+        }
+        for a in 0..3 {
+            self.origin[a][lane] = ray.origin[a];
+            self.dir[a][lane] = ray.dir[a];
+        }
+        self.tmin[lane] = ray.tmin;
+        self.tmax[lane] = ray.tmax;
+        self.valid[lane] = true;
+    }
+}
+
+/// How many rays the slice entry points trace together.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum PacketWidth {
+    /// Single rays.
+    One,
+    /// Packets of 4 (`f32x4`).
+    Four,
+    /// Packets of 8 (`f32x8`), the default.
+    #[default]
+    Eight,
+}
+
+impl PacketWidth {
+    /// The width for a ray count of 1, 4 or 8.
+    #[must_use]
+    pub const fn from_lanes(n: usize) -> Option<PacketWidth> {
+        match n {
+            1 => Some(PacketWidth::One),
+            4 => Some(PacketWidth::Four),
+            8 => Some(PacketWidth::Eight),
+            _ => None,
+        }
+    }
+}
+
+impl<'a> TriangleTree<'a> {
+    /// The closest hit of each lane of `packet`, bit for bit
+    /// [`closest_hit`](TriangleTree::closest_hit) of that lane's ray
+    /// ([`Hit::MISS`] for inactive lanes).
+    ///
+    /// # Panics
+    /// Never. No allocation; the stack is [`MAX_DEPTH`](crate::MAX_DEPTH) entries.
+    #[inline]
+    #[must_use]
+    pub fn closest_hit4(&self, packet: &Packet4) -> [Hit; 4] {
+        if cfg!(feature = "scalar-packets") {
+            return self.closest_hit_lanes(packet);
+        }
+        self.closest_lanes(&LaneRays::<f32x4, 4>::new(packet, &self.bounds))
+    }
+
+    /// [`closest_hit4`](TriangleTree::closest_hit4) for 8 lanes.
+    ///
+    /// # Panics
+    /// Never.
+    #[inline]
+    #[must_use]
+    pub fn closest_hit8(&self, packet: &Packet8) -> [Hit; 8] {
+        if cfg!(feature = "scalar-packets") {
+            return self.closest_hit_lanes(packet);
+        }
+        self.closest_lanes(&LaneRays::<f32x8, 8>::new(packet, &self.bounds))
+    }
+
+    /// Whether each lane of `packet` hits any triangle, exactly as
+    /// [`any_hit`](TriangleTree::any_hit) of that lane's ray (`false` for
+    /// inactive lanes).
+    ///
+    /// # Panics
+    /// Never.
+    #[inline]
+    #[must_use]
+    pub fn any_hit4(&self, packet: &Packet4) -> [bool; 4] {
+        if cfg!(feature = "scalar-packets") {
+            return self.any_hit_lanes(packet);
+        }
+        lane_bools(self.any_lanes(&LaneRays::<f32x4, 4>::new(packet, &self.bounds)))
+    }
+
+    /// [`any_hit4`](TriangleTree::any_hit4) for 8 lanes.
+    ///
+    /// # Panics
+    /// Never.
+    #[inline]
+    #[must_use]
+    pub fn any_hit8(&self, packet: &Packet8) -> [bool; 8] {
+        if cfg!(feature = "scalar-packets") {
+            return self.any_hit_lanes(packet);
+        }
+        lane_bools(self.any_lanes(&LaneRays::<f32x8, 8>::new(packet, &self.bounds)))
+    }
+
+    /// The scalar packet path: each active lane traced as a single ray.
+    #[must_use]
+    pub fn closest_hit_lanes<const N: usize>(&self, packet: &Packet<N>) -> [Hit; N] {
+        core::array::from_fn(|l| match packet.valid[l] {
+            true => self.closest_hit(&packet.ray(l)),
+            false => Hit::MISS,
+        })
+    }
+
+    /// The scalar any-hit packet path.
+    #[must_use]
+    pub fn any_hit_lanes<const N: usize>(&self, packet: &Packet<N>) -> [bool; N] {
+        core::array::from_fn(|l| packet.valid[l] && self.any_hit(&packet.ray(l)))
+    }
+
+    /// The closest hit of every ray, in packets of 8 consecutive rays:
+    /// `hits[i]` is bit for bit `closest_hit(&rays[i])`. Only the first
+    /// `min(rays.len(), hits.len())` entries are traced.
+    ///
+    /// # Panics
+    /// Never.
+    pub fn closest_hits(&self, rays: &[Ray], hits: &mut [Hit]) {
+        self.closest_hits_with(PacketWidth::Eight, rays, hits);
+    }
+
+    /// [`closest_hits`](TriangleTree::closest_hits) with a chosen width.
+    pub fn closest_hits_with(&self, width: PacketWidth, rays: &[Ray], hits: &mut [Hit]) {
+        match width {
+            PacketWidth::One => {
+                for (h, r) in hits.iter_mut().zip(rays) {
+                    *h = self.closest_hit(r);
+                }
+            }
+            PacketWidth::Four => in_packets(rays, hits, |p| self.closest_hit4(p)),
+            PacketWidth::Eight => in_packets(rays, hits, |p| self.closest_hit8(p)),
+        }
+    }
+
+    /// Whether each ray hits anything, in packets of 8 consecutive rays:
+    /// `occluded[i] == any_hit(&rays[i])`. Only the first
+    /// `min(rays.len(), occluded.len())` entries are traced.
+    ///
+    /// # Panics
+    /// Never.
+    pub fn any_hits(&self, rays: &[Ray], occluded: &mut [bool]) {
+        self.any_hits_with(PacketWidth::Eight, rays, occluded);
+    }
+
+    /// [`any_hits`](TriangleTree::any_hits) with a chosen width.
+    pub fn any_hits_with(&self, width: PacketWidth, rays: &[Ray], occluded: &mut [bool]) {
+        match width {
+            PacketWidth::One => {
+                for (o, r) in occluded.iter_mut().zip(rays) {
+                    *o = self.any_hit(r);
+                }
+            }
+            PacketWidth::Four => in_packets(rays, occluded, |p| self.any_hit4(p)),
+            PacketWidth::Eight => in_packets(rays, occluded, |p| self.any_hit8(p)),
+        }
+    }
+}
+
+/// Traces `rays` in packets of `N` consecutive rays (the last one partly
+/// inactive) and writes each lane's answer to `out`.
+#[inline(always)]
+fn in_packets<T: Copy, const N: usize>(
+    rays: &[Ray],
+    out: &mut [T],
+    trace: impl Fn(&Packet<N>) -> [T; N],
+) {
+    for (rs, os) in rays.chunks(N).zip(out.chunks_mut(N)) {
+        let answers = trace(&Packet::from_rays(rs));
+        for (o, a) in os.iter_mut().zip(answers).take(rs.len()) {
+            *o = a;
+        }
+    }
+}
+
+/// A lane bitmask as booleans.
+#[inline]
+fn lane_bools<const N: usize>(bits: u32) -> [bool; N] {
+    core::array::from_fn(|l| bits >> l & 1 == 1)
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,213 @@
+//! Packet lanes against single rays, bit for bit, on SAH-built scenes:
+//! random soups, grid-snapped scenes (hits on shared edges and split
+//! planes), adversarial rays and camera-like coherent packets.
+
+use glam::Vec3;
+use kdray::kernel::{Hit, Packet, Packet4, Packet8, PacketWidth, Ray, Triangle, TriangleTree};
+use kdray::tools::blob::{write_triangle_tree, Blob};
+use kdray::tools::build::{build, BuildParams, BuilderKind};
+
+/// A deterministic LCG in [0, 1).
+struct Rng(u64);
+
+impl Rng {
+    fn f(&mut self) -> f32 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((self.0 >> 40) as f32) / (1u64 << 24) as f32
+    }
+    fn pick<T: Copy>(&mut self, xs: &[T]) -> T {
+        xs[(self.f() * xs.len() as f32) as usize % xs.len()]
+    }
+}
+
+/// `n` small triangles in a 10-unit cube; with `grid`, vertices snapped
+/// to a 1/2-unit grid so many rays meet edges, vertices and split planes.
+fn scene(rng: &mut Rng, n: usize, grid: bool) -> Vec<Triangle> {
+    let snap = |x: f32| if grid { (x * 2.0).round() / 2.0 } else { x };
+    (0..n)
+        .map(|_| {
+            let c = [rng.f() * 10.0, rng.f() * 10.0, rng.f() * 10.0];
+            Triangle {
+                v: std::array::from_fn(|_| {
+                    std::array::from_fn(|a| snap(c[a] + 2.0 * rng.f() - 1.0))
+                }),
+            }
+        })
+        .collect()
+}
+
+fn blobs(tris: &[Triangle]) -> Vec<Blob> {
+    BuilderKind::ALL
+        .iter()
+        .map(|&k| write_triangle_tree(&build(tris, k, &BuildParams::default()).unwrap(), tris))
+        .collect()
+}
+
+fn random_ray(rng: &mut Rng) -> Ray {
+    Ray {
+        origin: std::array::from_fn(|_| rng.f() * 12.0 - 1.0),
+        tmin: 0.0,
+        dir: std::array::from_fn(|_| rng.f() - 0.5),
+        tmax: f32::INFINITY,
+    }
+}
+
+/// A ray with hostile components: NaN, ±0, ±inf, subnormals, origins on
+/// grid planes (where splits of snapped scenes lie), rays along them.
+fn adversarial_ray(rng: &mut Rng) -> Ray {
+    let special = [
+        0.0,
+        -0.0,
+        f32::NAN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        1e-42,
+        -1e-42,
+        f32::MIN_POSITIVE,
+        1e30,
+    ];
+    let mut r = random_ray(rng);
+    for a in 0..3 {
+        match (rng.f() * 10.0) as u32 {
+            0 => r.origin[a] = rng.pick(&special),
+            1 => r.dir[a] = rng.pick(&special),
+            2..=3 => r.origin[a] = (r.origin[a] * 2.0).round() / 2.0,
+            4 => r.dir[a] = 0.0,
+            _ => {}
+        }
+    }
+    r.tmin = rng.pick(&[0.0, -0.0, 0.0, 0.0, 1.0, -5.0, f32::NAN, f32::NEG_INFINITY]);
+    r.tmax = rng.pick(&[f32::INFINITY, f32::INFINITY, 3.0, 0.0, f32::NAN, -1.0]);
+    r
+}
+
+fn assert_lanes<const N: usize>(
+    tree: &TriangleTree,
+    p: &Packet<N>,
+    hits: [Hit; N],
+    any: [bool; N],
+) {
+    for l in 0..N {
+        let r = p.ray(l);
+        let (want, want_any) = match p.valid[l] {
+            true => (tree.closest_hit(&r), tree.any_hit(&r)),
+            false => (Hit::MISS, false),
+        };
+        assert_eq!(hits[l].bits(), want.bits(), "closest, lane {l}: {r:?}");
+        assert_eq!(any[l], want_any, "any, lane {l}: {r:?}");
+    }
+}
+
+fn check_rays(tree: &TriangleTree, rays: &[Ray], rng: &mut Rng) -> usize {
+    let mut hits = 0;
+    for chunk in rays.chunks(8) {
+        let mut p8 = Packet8::from_rays(chunk);
+        // About one lane in eight inactive.
+        for l in 0..8 {
+            if rng.f() < 0.12 {
+                p8.valid[l] = false;
+            }
+        }
+        let h8 = tree.closest_hit8(&p8);
+        hits += h8.iter().filter(|h| h.is_hit()).count();
+        assert_lanes(tree, &p8, h8, tree.any_hit8(&p8));
+        let p4 = Packet4::from_rays(&chunk[..chunk.len().min(4)]);
+        assert_lanes(tree, &p4, tree.closest_hit4(&p4), tree.any_hit4(&p4));
+    }
+    hits
+}
+
+#[test]
+fn random_scenes_random_rays() {
+    let mut rng = Rng(1);
+    let mut hits = 0;
+    for (n, grid) in [
+        (1, false),
+        (30, true),
+        (300, false),
+        (2000, true),
+        (3000, false),
+    ] {
+        let tris = scene(&mut rng, n, grid);
+        for blob in blobs(&tris) {
+            let tree = blob.tree().unwrap();
+            let rays: Vec<Ray> = (0..8000).map(|_| random_ray(&mut rng)).collect();
+            hits += check_rays(&tree, &rays, &mut rng);
+        }
+    }
+    assert!(
+        hits > 10_000,
+        "only {hits} hits: the test checks too little"
+    );
+}
+
+#[test]
+fn adversarial_rays() {
+    let mut rng = Rng(2);
+    for (n, grid) in [(50, true), (1000, true), (1000, false)] {
+        let tris = scene(&mut rng, n, grid);
+        for blob in blobs(&tris) {
+            let tree = blob.tree().unwrap();
+            let rays: Vec<Ray> = (0..20000).map(|_| adversarial_ray(&mut rng)).collect();
+            check_rays(&tree, &rays, &mut rng);
+        }
+    }
+}
+
+/// Packets from 4x2 pixel tiles of a pinhole camera: shared origin and
+/// direction signs, except for tiles on the image's centre lines.
+#[test]
+fn camera_tiles_and_shadow_rays() {
+    let mut rng = Rng(3);
+    let tris = scene(&mut rng, 3000, true);
+    let blob = &blobs(&tris)[0];
+    let tree = blob.tree().unwrap();
+    let eye = Vec3::new(5.0, 5.0, 25.0);
+    let light = Vec3::new(12.0, 14.0, 3.0);
+    let (w, h) = (128usize, 128usize);
+    let mut hits = 0;
+    for ty in (0..h).step_by(2) {
+        for tx in (0..w).step_by(4) {
+            let dirs: [Vec3; 8] = std::array::from_fn(|l| {
+                let (x, y) = (tx + l % 4, ty + l / 4);
+                Vec3::new(x as f32 / w as f32 - 0.5, y as f32 / h as f32 - 0.5, -1.0) * 0.5
+            });
+            let p = Packet8::from_vec3([eye; 8], dirs, 0.0, f32::INFINITY);
+            let h8 = tree.closest_hit8(&p);
+            assert_lanes(&tree, &p, h8, tree.any_hit8(&p));
+            // Shadow rays from the hit points towards the light.
+            let origins = std::array::from_fn(|l| Ray::new(eye, dirs[l]).at(h8[l].t.min(1e3)));
+            let to_light = origins.map(|o| light - o);
+            let s = Packet8::from_vec3(origins, to_light, 1e-3, 1.0);
+            assert_lanes(&tree, &s, tree.closest_hit8(&s), tree.any_hit8(&s));
+            hits += h8.iter().filter(|h| h.is_hit()).count();
+        }
+    }
+    assert!(hits > 1000, "only {hits} camera hits");
+}
+
+#[test]
+fn slice_entry_points_match_single_rays() {
+    let mut rng = Rng(4);
+    let tris = scene(&mut rng, 500, false);
+    let blob = &blobs(&tris)[0];
+    let tree = blob.tree().unwrap();
+    let rays: Vec<Ray> = (0..1003).map(|_| random_ray(&mut rng)).collect();
+    let want: Vec<[u32; 4]> = rays.iter().map(|r| tree.closest_hit(r).bits()).collect();
+    let want_any: Vec<bool> = rays.iter().map(|r| tree.any_hit(r)).collect();
+    for width in [PacketWidth::One, PacketWidth::Four, PacketWidth::Eight] {
+        let mut hits = vec![Hit::OCCLUDED; rays.len()];
+        tree.closest_hits_with(width, &rays, &mut hits);
+        assert_eq!(
+            hits.iter().map(Hit::bits).collect::<Vec<_>>(),
+            want,
+            "{width:?}"
+        );
+        let mut occ = vec![false; rays.len()];
+        tree.any_hits_with(width, &rays, &mut occ);
+        assert_eq!(occ, want_any, "{width:?}");
+    }
+}

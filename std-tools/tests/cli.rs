@@ -111,6 +111,69 @@ fn build_info_trace_round_trip() {
     );
 }
 
+/// `--packet 1|4|8`, with threads, JSON and any hit: the same hit file
+/// bytes whatever the width (2,101 rays: several parallel chunks and a
+/// last, partly empty packet); a width other than 1, 4, 8 is refused.
+#[test]
+fn trace_packets_match_single_rays() {
+    let obj = write(&tmp("pk.obj"), QUAD_OBJ);
+    let tree = tmp("pk.kdt").display().to_string();
+    assert!(kdray(&["build", &obj, "-o", &tree]).status.success());
+    // Rays from above and from the side, in tiles of 8 neighbours; a few
+    // miss, a few are hostile (zero direction, NaN).
+    let rays: Vec<[f32; 8]> = (0..2101u32)
+        .map(|i| {
+            let (x, y) = ((i % 50) as f32 / 40.0 - 0.1, (i / 50) as f32 / 40.0 - 0.1);
+            match i % 97 {
+                0 => [x, y, 2.0, 0.0, 0.0, 0.0, 0.0, f32::INFINITY],
+                1 => [f32::NAN, y, 2.0, 0.0, 0.0, 0.0, -1.0, f32::INFINITY],
+                _ if i % 3 == 0 => [-1.0, x, y, 0.0, 1.0, 0.01, 0.02, f32::INFINITY],
+                _ => [x, y, 2.0, 0.0, 0.01, -0.02, -1.0, f32::INFINITY],
+            }
+        })
+        .collect();
+    let rays = write(&tmp("pk.rays"), &ray_bytes(&rays));
+    for any in [false, true] {
+        let mut reference: Option<Vec<u8>> = None;
+        for (packet, threads) in [("1", "1"), ("4", "2"), ("8", "1"), ("8", "2")] {
+            let hits = tmp(&format!("pk-{packet}-{threads}-{any}.hits"));
+            let hits_s = hits.display().to_string();
+            let mut args = vec![
+                "trace",
+                &tree,
+                &rays,
+                "-o",
+                &hits_s,
+                "--packet",
+                packet,
+                "--threads",
+                threads,
+                "--json",
+            ];
+            if any {
+                args.push("--any-hit");
+            }
+            let o = kdray(&args);
+            assert!(o.status.success(), "{}", stderr(&o));
+            let packet_json = format!("\"packet\": {packet}");
+            assert!(stdout(&o).contains(&packet_json), "{}", stdout(&o));
+            let h = std::fs::read(&hits).unwrap();
+            assert_eq!(h.len(), 2101 * 16);
+            match &reference {
+                None => reference = Some(h),
+                Some(r) => assert!(*r == h, "--packet {packet} --threads {threads} differs"),
+            }
+        }
+        let r = reference.unwrap();
+        let hit_count = r.chunks(16).filter(|h| h[4..8] != [0xFF; 4]).count();
+        assert!(hit_count > 500 && hit_count < 2101, "{hit_count} hits");
+    }
+    let out = tmp("pk-bad.hits").display().to_string();
+    let o = kdray(&["trace", &tree, &rays, "-o", &out, "--packet", "3"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("1, 4 or 8"), "{}", stderr(&o));
+}
+
 #[test]
 fn bad_inputs_get_clear_errors() {
     let obj = write(&tmp("ok.obj"), QUAD_OBJ);

@@ -144,6 +144,16 @@ impl PacketWidth {
             _ => None,
         }
     }
+
+    /// The rays per packet: 1, 4 or 8.
+    #[must_use]
+    pub const fn lanes(self) -> usize {
+        match self {
+            PacketWidth::One => 1,
+            PacketWidth::Four => 4,
+            PacketWidth::Eight => 8,
+        }
+    }
 }
 
 impl<'a> TriangleTree<'a> {

@@ -9,7 +9,7 @@ use kdray_tools::build::{build, BuildParams, BuilderKind};
 use kdray_tools::camera::Camera;
 use kdray_tools::scene::teapot_in_stadium;
 use kdray_tools::stats::{tree_stats, CostModel};
-use kdray_tools::trace::{trace_into, trace_serial, Query};
+use kdray_tools::trace::{trace_into, trace_serial, PacketWidth, Query};
 use std::time::Instant;
 
 /// Arguments of `kdray demo`.
@@ -50,11 +50,12 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let rays = Camera::framing(&scene.focus).rays(a.size, a.size);
     let mut hits = vec![Hit::MISS; rays.len()];
     let t = Instant::now();
-    trace_serial(&tree, &rays, &mut hits, Query::Closest);
+    // The camera's rays are in row order, not tiles: single rays.
+    trace_serial(&tree, &rays, &mut hits, Query::Closest, PacketWidth::One);
     let one = t.elapsed().as_secs_f64();
     let pool = thread_pool(None)?;
     let t = Instant::now();
-    pool.install(|| trace_into(&tree, &rays, &mut hits, Query::Closest));
+    pool.install(|| trace_into(&tree, &rays, &mut hits, Query::Closest, PacketWidth::One));
     let all = t.elapsed().as_secs_f64();
     let hit = hits.iter().filter(|h| h.is_hit()).count();
     say!(

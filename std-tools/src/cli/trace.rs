@@ -5,7 +5,7 @@ use super::{thread_pool, CmdResult};
 use kdray_kernel::{Hit, Ray};
 use kdray_tools::blob::Blob;
 use kdray_tools::io;
-use kdray_tools::trace::{trace_into, Query};
+use kdray_tools::trace::{trace_into, PacketWidth, Query};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -25,6 +25,11 @@ pub(crate) struct Args {
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
+    /// Rays traced together: 1 (single rays), 4 or 8 (packets of that
+    /// many consecutive rays: order the file in 2x2 / 4x2 pixel tiles, e.g.
+    /// `primary_tiled.rays`). The hits are the same bit for bit.
+    #[arg(long, default_value = "1", value_parser = parse_width)]
+    packet: PacketWidth,
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     json: bool,
@@ -48,7 +53,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         Query::Closest
     };
     let t = Instant::now();
-    pool.install(|| trace_into(&tree, &rays, &mut hits, query));
+    pool.install(|| trace_into(&tree, &rays, &mut hits, query, a.packet));
     let seconds = t.elapsed().as_secs_f64();
     io::write_records(&a.output, &hits)?;
     let per_ray = a.counts.then(|| {
@@ -72,6 +77,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             .num("hits", hit_count as f64)
             .num("threads", pool.current_num_threads() as f64)
             .str("query", if a.any_hit { "any" } else { "closest" })
+            .num("packet", a.packet.lanes() as f64)
             .num("seconds", seconds)
             .num("mrays_per_s", mrays)
             .str(
@@ -81,11 +87,12 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         say!("{}", j.finish());
     } else {
         say!(
-            "traced {} rays ({} {}) on {} threads in {seconds:.3} s: {mrays:.2} Mrays/s (excluding file I/O)",
+            "traced {} rays ({} {}) on {} threads, packets of {}, in {seconds:.3} s: {mrays:.2} Mrays/s (excluding file I/O)",
             rays.len(),
             hit_count,
             if a.any_hit { "occluded" } else { "hit" },
-            pool.current_num_threads()
+            pool.current_num_threads(),
+            a.packet.lanes(),
         );
         if let Some((nodes, tris)) = per_ray {
             say!("per ray: {nodes:.1} nodes visited, {tris:.1} triangles tested");
@@ -93,4 +100,12 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         say!("wrote {}", a.output.display());
     }
     Ok(())
+}
+
+/// `--packet`: 1, 4 or 8.
+fn parse_width(s: &str) -> Result<PacketWidth, String> {
+    s.parse()
+        .ok()
+        .and_then(PacketWidth::from_lanes)
+        .ok_or_else(|| format!("{s:?} is not a packet width: use 1, 4 or 8"))
 }

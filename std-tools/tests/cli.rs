@@ -149,6 +149,8 @@ fn trace_packets_match_single_rays() {
                 "--threads",
                 threads,
                 "--json",
+                "--repeat",
+                "2",
             ];
             if any {
                 args.push("--any-hit");

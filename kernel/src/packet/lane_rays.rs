@@ -7,6 +7,7 @@
 
 use super::lanes::Lanes;
 use super::Packet;
+use crate::ray::Ray;
 use crate::traverse::CellRay;
 use crate::tree::Bounds;
 use crate::triangle::ShearedRay;
@@ -59,8 +60,16 @@ pub(crate) struct Single {
 
 impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
     /// Prepares the valid lanes of `packet` against the scene `bounds`.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn new(packet: &Packet<N>, bounds: &Bounds) -> Self {
+        Self::from_fn(|l| packet.valid[l].then(|| packet.ray(l)), bounds)
+    }
+
+    /// Prepares the lanes `ray(l)` gives (`None`: an inactive lane)
+    /// against the scene `bounds`; the slice entry points read their rays
+    /// in place this way, without a [`Packet`] in between.
+    #[inline(always)]
+    pub(crate) fn from_fn(ray: impl Fn(usize) -> Option<Ray>, bounds: &Bounds) -> Self {
         let mut active = 0u32;
         let mut org = [[0.0f32; N]; 3];
         let mut inv = [[0.0f32; N]; 3];
@@ -73,10 +82,9 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
         let mut shear = [[0.0f32; N]; 3];
         let mut single = [None; N];
         for l in 0..N {
-            let ray = packet.ray(l);
-            if !packet.valid[l] {
+            let Some(ray) = ray(l) else {
                 continue;
-            }
+            };
             let Some(sr) = ShearedRay::new(&ray) else {
                 continue;
             };

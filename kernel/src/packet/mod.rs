@@ -31,6 +31,7 @@ use crate::ray::{Hit, Ray};
 use crate::tree::TriangleTree;
 use glam::Vec3;
 use lane_rays::LaneRays;
+use lanes::Lanes;
 use wide::{f32x4, f32x8};
 
 /// `N` rays in structure-of-arrays layout, with a valid flag per lane.
@@ -240,14 +241,25 @@ impl<'a> TriangleTree<'a> {
 
     /// [`closest_hits`](TriangleTree::closest_hits) with a chosen width.
     pub fn closest_hits_with(&self, width: PacketWidth, rays: &[Ray], hits: &mut [Hit]) {
+        // The scalar path traces each ray alone (the packet entry points'
+        // `scalar-packets` rule).
+        let width = if cfg!(feature = "scalar-packets") {
+            PacketWidth::One
+        } else {
+            width
+        };
         match width {
             PacketWidth::One => {
                 for (h, r) in hits.iter_mut().zip(rays) {
                     *h = self.closest_hit(r);
                 }
             }
-            PacketWidth::Four => in_packets(rays, hits, |p| self.closest_hit4(p)),
-            PacketWidth::Eight => in_packets(rays, hits, |p| self.closest_hit8(p)),
+            PacketWidth::Four => {
+                in_packets::<f32x4, _, 4>(self, rays, hits, |lr| self.closest_lanes(lr))
+            }
+            PacketWidth::Eight => {
+                in_packets::<f32x8, _, 8>(self, rays, hits, |lr| self.closest_lanes(lr))
+            }
         }
     }
 
@@ -263,14 +275,25 @@ impl<'a> TriangleTree<'a> {
 
     /// [`any_hits`](TriangleTree::any_hits) with a chosen width.
     pub fn any_hits_with(&self, width: PacketWidth, rays: &[Ray], occluded: &mut [bool]) {
+        // The scalar path traces each ray alone (the packet entry points'
+        // `scalar-packets` rule).
+        let width = if cfg!(feature = "scalar-packets") {
+            PacketWidth::One
+        } else {
+            width
+        };
         match width {
             PacketWidth::One => {
                 for (o, r) in occluded.iter_mut().zip(rays) {
                     *o = self.any_hit(r);
                 }
             }
-            PacketWidth::Four => in_packets(rays, occluded, |p| self.any_hit4(p)),
-            PacketWidth::Eight => in_packets(rays, occluded, |p| self.any_hit8(p)),
+            PacketWidth::Four => {
+                in_packets::<f32x4, _, 4>(self, rays, occluded, |lr| lane_bools(self.any_lanes(lr)))
+            }
+            PacketWidth::Eight => {
+                in_packets::<f32x8, _, 8>(self, rays, occluded, |lr| lane_bools(self.any_lanes(lr)))
+            }
         }
     }
 }
@@ -278,13 +301,14 @@ impl<'a> TriangleTree<'a> {
 /// Traces `rays` in packets of `N` consecutive rays (the last one partly
 /// inactive) and writes each lane's answer to `out`.
 #[inline(always)]
-fn in_packets<T: Copy, const N: usize>(
+fn in_packets<V: Lanes<N>, T: Copy, const N: usize>(
+    tree: &TriangleTree<'_>,
     rays: &[Ray],
     out: &mut [T],
-    trace: impl Fn(&Packet<N>) -> [T; N],
+    trace: impl Fn(&LaneRays<V, N>) -> [T; N],
 ) {
     for (rs, os) in rays.chunks(N).zip(out.chunks_mut(N)) {
-        let answers = trace(&Packet::from_rays(rs));
+        let answers = trace(&LaneRays::from_fn(|l| rs.get(l).copied(), &tree.bounds));
         for (o, a) in os.iter_mut().zip(answers).take(rs.len()) {
             *o = a;
         }

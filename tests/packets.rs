@@ -101,6 +101,19 @@ fn assert_lanes<const N: usize>(
     }
 }
 
+/// Gives every lane lane 0's direction signs, keeping the magnitudes:
+/// packets with mixed signs go lane by lane, these walk together.
+fn share_signs<const N: usize>(p: &Packet<N>) -> Packet<N> {
+    let mut p = *p;
+    for d in &mut p.dir {
+        let sign = d[0];
+        for x in d.iter_mut() {
+            *x = x.copysign(sign);
+        }
+    }
+    p
+}
+
 fn check_rays(tree: &TriangleTree, rays: &[Ray], rng: &mut Rng) -> usize {
     let mut hits = 0;
     for chunk in rays.chunks(8) {
@@ -111,11 +124,13 @@ fn check_rays(tree: &TriangleTree, rays: &[Ray], rng: &mut Rng) -> usize {
                 p8.valid[l] = false;
             }
         }
-        let h8 = tree.closest_hit8(&p8);
-        hits += h8.iter().filter(|h| h.is_hit()).count();
-        assert_lanes(tree, &p8, h8, tree.any_hit8(&p8));
         let p4 = Packet4::from_rays(&chunk[..chunk.len().min(4)]);
-        assert_lanes(tree, &p4, tree.closest_hit4(&p4), tree.any_hit4(&p4));
+        for (p8, p4) in [(p8, p4), (share_signs(&p8), share_signs(&p4))] {
+            let h8 = tree.closest_hit8(&p8);
+            hits += h8.iter().filter(|h| h.is_hit()).count();
+            assert_lanes(tree, &p8, h8, tree.any_hit8(&p8));
+            assert_lanes(tree, &p4, tree.closest_hit4(&p4), tree.any_hit4(&p4));
+        }
     }
     hits
 }

@@ -215,12 +215,32 @@ pub fn packet_vs_single(data: &[u8]) {
     };
     let tree = blob.tree().expect("the builder's blob validates");
     while !r.rest().is_empty() {
-        if r.u8() & 1 == 0 {
-            let p: Packet8 = r.packet();
+        // Bit 0: the width; bit 1: direction signs made to agree, so the
+        // lanes walk together (packets with mixed signs go lane by lane).
+        let how = r.u8();
+        if how & 1 == 0 {
+            let mut p: Packet8 = r.packet();
+            if how & 2 != 0 {
+                share_signs(&mut p);
+            }
             assert_lanes(&tree, &p, tree.closest_hit8(&p), tree.any_hit8(&p));
         } else {
-            let p: Packet4 = r.packet();
+            let mut p: Packet4 = r.packet();
+            if how & 2 != 0 {
+                share_signs(&mut p);
+            }
             assert_lanes(&tree, &p, tree.closest_hit4(&p), tree.any_hit4(&p));
+        }
+    }
+}
+
+/// Gives every lane's direction lane 0's signs, keeping the magnitudes
+/// (NaN, infinities, zeros and subnormals stay).
+pub fn share_signs<const N: usize>(p: &mut Packet<N>) {
+    for d in &mut p.dir {
+        let sign = d[0];
+        for x in d.iter_mut() {
+            *x = x.copysign(sign);
         }
     }
 }

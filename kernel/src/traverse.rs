@@ -159,6 +159,60 @@ impl CellRay {
     }
 }
 
+impl CellRay {
+    /// The root cell's interval as the walk keeps intervals: widened by
+    /// the slack once more, `[lo, hi] = [t0 - s, t1 + s]` (the slack rule).
+    #[inline(always)]
+    #[must_use]
+    pub fn start(&self) -> (f32, f32) {
+        (self.t0 - self.slack, self.t1 + self.slack)
+    }
+}
+
+/// The slack rule's interval arithmetic, written once for a single ray
+/// (`f32`) and for packet lanes (one `f32` per lane): intervals are kept
+/// pre-widened, `[lo, hi] = [t0 - s, t1 + s]`, so the visit tests compare
+/// `t_split` as computed (`t_split < lo`: near child skipped,
+/// `t_split > hi`: far child skipped) and each new end moves by `2s`.
+pub(crate) trait Span:
+    Copy + core::ops::Add<Output = Self> + core::ops::Sub<Output = Self>
+{
+    /// `f32::min`: a NaN `rhs` keeps `self`.
+    fn min(self, rhs: Self) -> Self;
+    /// `f32::max`: a NaN `rhs` keeps `self`.
+    fn max(self, rhs: Self) -> Self;
+
+    /// The near child's interval end: its cell ends at the plane.
+    #[inline(always)]
+    fn near_hi(self, t_split: Self, s2: Self) -> Self {
+        self.min(t_split + s2)
+    }
+
+    /// The far child's interval start: its cell starts at the plane.
+    #[inline(always)]
+    fn far_lo(self, t_split: Self, s2: Self) -> Self {
+        self.max(t_split - s2)
+    }
+
+    /// Cells whose `lo` lies beyond this (the best hit `self` plus the
+    /// slack, widened by the slack) cannot hold a better hit.
+    #[inline(always)]
+    fn cutoff(self, s2: Self) -> Self {
+        self + s2
+    }
+}
+
+impl Span for f32 {
+    #[inline(always)]
+    fn min(self, rhs: f32) -> f32 {
+        f32::min(self, rhs)
+    }
+    #[inline(always)]
+    fn max(self, rhs: f32) -> f32 {
+        f32::max(self, rhs)
+    }
+}
+
 /// The work one traversal did: what a heatmap shows and a cost model predicts.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct TraversalCounts {
@@ -242,7 +296,8 @@ impl<'a> TriangleTree<'a> {
             return Hit::MISS;
         };
         let mut best = Closest::new(ray.tmax);
-        let start = (0, cr.t0 - cr.slack, cr.t1 + cr.slack);
+        let (lo, hi) = cr.start();
+        let start = (0, lo, hi);
         self.closest_from(&sr, &cr, ray.tmin, &mut best, start, tally);
         best.hit()
     }
@@ -299,7 +354,8 @@ impl<'a> TriangleTree<'a> {
         let Some(cr) = CellRay::new(ray, &sr, &self.bounds) else {
             return false;
         };
-        let start = (0, cr.t0 - cr.slack, cr.t1 + cr.slack);
+        let (lo, hi) = cr.start();
+        let start = (0, lo, hi);
         self.any_from(&sr, &cr, (ray.tmin, ray.tmax), start, tally)
     }
 
@@ -370,7 +426,7 @@ impl<'a> TriangleTree<'a> {
                 let Some(slot) = stack.get_mut(sp) else {
                     return; // deeper than MAX_DEPTH: only an unchecked, invalid blob
                 };
-                let far_lo = lo.max(t_split - s2);
+                let far_lo = lo.far_lo(t_split, s2);
                 *slot = Pending {
                     node: second,
                     lo: far_lo,
@@ -379,7 +435,7 @@ impl<'a> TriangleTree<'a> {
                 if visit_near {
                     sp += usize::from(visit_far);
                     node_idx = first;
-                    hi = hi.min(t_split + s2);
+                    hi = hi.near_hi(t_split, s2);
                 } else {
                     node_idx = second;
                     lo = far_lo;
@@ -391,7 +447,7 @@ impl<'a> TriangleTree<'a> {
             // behind the best hit.
             let cutoff = match leaf(self.triangles, LeafIter::new(self.leaf_prims(node)), tally) {
                 Step::Stop => return,
-                Step::Continue(best_t) => best_t + s2,
+                Step::Continue(best_t) => best_t.cutoff(s2),
             };
             // Advance to the next far cell that can still hold a better hit.
             loop {

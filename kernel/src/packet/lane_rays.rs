@@ -17,20 +17,23 @@ pub(crate) struct LaneRays<V, const N: usize> {
     /// Lanes that take part: valid, and crossing the scene box. Every
     /// other lane misses, as the single ray does.
     pub(crate) active: u32,
+    /// Whether the active lanes share their near child on every axis (the
+    /// signs of their directions agree): only then does the packet walk
+    /// the tree together; otherwise each lane goes alone (`walk.rs`).
+    pub(crate) coherent: bool,
     /// Origin per axis.
     pub(crate) org: [V; 3],
     /// `1/dir` per axis.
     pub(crate) inv: [V; 3],
-    /// Per axis, the lanes that enter the above child first (bitmask)...
+    /// Per axis, 1 when the (coherent) lanes enter the above child first.
     pub(crate) above_first: [u32; 3],
-    /// ...and the same as lane masks.
-    pub(crate) above_first_mask: [V; 3],
-    /// The widened root interval.
-    pub(crate) t0: V,
+    /// The root interval as the single ray starts its walk,
+    /// [`CellRay::start`]: widened by the slack once more.
+    pub(crate) lo: V,
     /// End of the widened root interval.
-    pub(crate) t1: V,
-    /// The slack `s` per lane.
-    pub(crate) slack: V,
+    pub(crate) hi: V,
+    /// Twice the slack, per lane (the slack rule's step).
+    pub(crate) s2: V,
     /// The rays' own `tmin`.
     pub(crate) tmin: V,
     /// The rays' own `tmax`.
@@ -75,7 +78,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
         let mut inv = [[0.0f32; N]; 3];
         let mut above_first = [0u32; 3];
         // Inactive lanes keep an empty interval [1, 0].
-        let (mut t0, mut t1, mut slack) = ([1.0f32; N], [0.0f32; N], [0.0f32; N]);
+        let (mut lo, mut hi, mut s2) = ([1.0f32; N], [0.0f32; N], [0.0f32; N]);
         let (mut tmin, mut tmax) = ([0.0f32; N], [0.0f32; N]);
         let mut ks = [[0usize; 3]; N];
         let mut org_k = [[0.0f32; N]; 3];
@@ -99,7 +102,8 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
                 org_k[a][l] = sr.org[sr.k[a]];
                 shear[a][l] = sr.s[a];
             }
-            (t0[l], t1[l], slack[l]) = (cr.t0, cr.t1, cr.slack);
+            (lo[l], hi[l]) = cr.start();
+            s2[l] = cr.slack + cr.slack;
             (tmin[l], tmax[l]) = (ray.tmin, ray.tmax);
             ks[l] = sr.k;
             single[l] = Some(Single {
@@ -109,6 +113,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
                 tmax: ray.tmax,
             });
         }
+        let coherent = above_first.iter().all(|&af| af == 0 || af == active);
         let first = ks[(active.trailing_zeros() as usize).min(N - 1)];
         let k_uniform = (0..N)
             .all(|l| active >> l & 1 == 0 || ks[l] == first)
@@ -118,13 +123,13 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
         };
         LaneRays {
             active,
+            coherent,
             org: org.map(V::from_array),
             inv: inv.map(V::from_array),
-            above_first,
-            above_first_mask: above_first.map(V::mask),
-            t0: V::from_array(t0),
-            t1: V::from_array(t1),
-            slack: V::from_array(slack),
+            above_first: above_first.map(|af| u32::from(af != 0)),
+            lo: V::from_array(lo),
+            hi: V::from_array(hi),
+            s2: V::from_array(s2),
             tmin: V::from_array(tmin),
             tmax: V::from_array(tmax),
             k_uniform,

@@ -8,12 +8,13 @@
 //! Masks are lane vectors with all bits set or clear, as `wide` returns
 //! them; control flow reads them as bitmasks (bit `l` = lane `l`).
 
-use core::ops::{Add, Div, Mul, Sub};
+use crate::traverse::Span;
+use core::ops::{Div, Mul};
 use wide::{f32x4, f32x8};
 
 /// A vector of `N` `f32` lanes.
 pub(crate) trait Lanes<const N: usize>:
-    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self>
+    Span + Mul<Output = Self> + Div<Output = Self>
 {
     fn splat(x: f32) -> Self;
     fn from_array(a: [f32; N]) -> Self;
@@ -30,10 +31,6 @@ pub(crate) trait Lanes<const N: usize>:
     fn eq(self, rhs: Self) -> u32;
     /// Lanes whose value is finite, as a bitmask.
     fn finite(self) -> u32;
-    /// `f32::min` lane by lane (a NaN in `rhs` keeps `self`).
-    fn min(self, rhs: Self) -> Self;
-    /// `f32::max` lane by lane (a NaN in `rhs` keeps `self`).
-    fn max(self, rhs: Self) -> Self;
     /// `if_true` where `mask` (a lane mask from [`Lanes::mask`]) is set.
     fn select(mask: Self, if_true: Self, if_false: Self) -> Self;
     /// The lane mask of a bitmask.
@@ -42,6 +39,18 @@ pub(crate) trait Lanes<const N: usize>:
 
 macro_rules! impl_lanes {
     ($v:ty, $n:literal) => {
+        /// `f32::min` / `f32::max` lane by lane (a NaN in `rhs` keeps `self`).
+        impl Span for $v {
+            #[inline(always)]
+            fn min(self, rhs: Self) -> Self {
+                <$v>::min(self, rhs)
+            }
+            #[inline(always)]
+            fn max(self, rhs: Self) -> Self {
+                <$v>::max(self, rhs)
+            }
+        }
+
         impl Lanes<$n> for $v {
             #[inline(always)]
             fn splat(x: f32) -> Self {
@@ -78,14 +87,6 @@ macro_rules! impl_lanes {
             #[inline(always)]
             fn finite(self) -> u32 {
                 self.is_finite().to_bitmask()
-            }
-            #[inline(always)]
-            fn min(self, rhs: Self) -> Self {
-                <$v>::min(self, rhs)
-            }
-            #[inline(always)]
-            fn max(self, rhs: Self) -> Self {
-                <$v>::max(self, rhs)
             }
             #[inline(always)]
             fn select(mask: Self, if_true: Self, if_false: Self) -> Self {

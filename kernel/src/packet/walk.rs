@@ -3,22 +3,27 @@
 //! ```text
 //! while not a leaf:
 //!     t_split = (split - origin[axis]) * inv_dir[axis]      for every lane
-//!     each lane needs its near child, its far child or both, by the
-//!         single ray's tests (widened by the lane's slack)
-//!     below lanes = lanes whose near or far child is below, likewise above
-//!     continue with the child most lanes enter first, push the other
-//!         with its lanes and their per-lane [t0, t1]
+//!     near lanes = lanes with t_split >= lo, far lanes = the others and
+//!         near lanes with t_split <= hi (the single ray's tests)
+//!     continue with the near child and its lanes, push the far child
+//!         with its lanes and their per-lane [lo, hi]
 //! ```
 //!
-//! Rays need not share direction signs: "near" is decided per lane
-//! (`above_first`), so a lane whose near child is the one pushed visits
-//! its cells out of t order. That is harmless: a lane skips a cell only
-//! when its interval misses the lane's own range by more than the slack,
-//! or starts more than the slack beyond the lane's best hit, exactly the
-//! single ray's rules; triangles are tested over the lane's own
-//! `[tmin, best t]`, and [`Closest`] does not depend on the order in which
-//! hits arrive. So each lane tests every triangle its single ray tests
-//! (perhaps more) and keeps the same winner, bit for bit.
+//! The packet walks together only when its active lanes share direction
+//! signs (`LaneRays::coherent`): then "near" is one child for every lane
+//! and each lane meets its cells in its own t order, with exactly the
+//! single ray's slack rule ([`Span`](crate::traverse::Span), shared code)
+//! on the same pre-widened intervals. A lane still tests a few cells its
+//! single ray skips (cells other lanes open, out to the packet's cutoff per
+//! lane), which cannot change its answer: triangles are tested over the
+//! lane's own `[tmin, best t]` and [`Closest`] does not depend on the order
+//! in which hits arrive. Packets whose lanes disagree on a sign, and lanes
+//! left alone in a subtree, finish as single rays (`Visit::single`).
+//!
+//! Tried and slower (camera rays on the bunny, one run, pinned): per-lane
+//! near/far for mixed-sign packets (each lane's near child chosen by lane
+//! masks and blends of the pushed intervals): random rays ran at ~0.6-0.8x
+//! single rays, coherent ones gained nothing from it.
 
 use super::lane_rays::LaneRays;
 use super::lanes::Lanes;
@@ -27,16 +32,17 @@ use crate::traverse::{Closest, LeafIter};
 use crate::tree::{TriangleTree, MAX_DEPTH};
 
 /// How many lanes left in a cell make the packet finish them one by one
-/// as single rays (measured on the bunny, see `benches/packets.rs`).
+/// as single rays (measured on the bunny, `kdray trace --packet 8`).
 const FEW_LANES: u32 = 1;
 
-/// A far child waiting on the stack with its lanes and their intervals.
+/// A far child waiting on the stack with its lanes and their intervals
+/// (widened by the slack, as the single ray keeps them).
 #[derive(Clone, Copy)]
 struct Pending<V> {
     node: u32,
     lanes: u32,
-    t0: V,
-    t1: V,
+    lo: V,
+    hi: V,
 }
 
 /// What the packet loop does at a leaf and for a lone lane. Both return
@@ -179,28 +185,31 @@ impl<'a> TriangleTree<'a> {
         lr: &LaneRays<V, N>,
         visit: &mut impl Visit<'a, V>,
     ) {
-        let s = lr.slack;
+        let s2 = lr.s2;
         let empty = Pending {
             node: 0,
             lanes: 0,
-            t0: s,
-            t1: s,
+            lo: s2,
+            hi: s2,
         };
         let mut stack = [empty; MAX_DEPTH as usize];
         let mut sp = 0usize;
-        let (mut node_idx, mut lanes, mut t0, mut t1) = (0u32, lr.active, lr.t0, lr.t1);
+        let (mut node_idx, mut lanes, mut lo, mut hi) = (0u32, lr.active, lr.lo, lr.hi);
         if lanes == 0 {
             return;
         }
+        // Lanes that disagree on a near child go alone from the root: a
+        // packet of random rays costs its single rays, not more.
+        let few = if lr.coherent { FEW_LANES } else { N as u32 };
         loop {
             let Some(&node) = self.nodes.get(node_idx as usize) else {
                 return;
             };
             let axis = node.axis_bits();
-            let step = if lanes.count_ones() <= FEW_LANES {
+            let step = if lanes.count_ones() <= few {
                 // Few lanes left in this subtree: a packet step would
                 // cost as much as several single-ray steps.
-                let (lo, hi) = ((t0 - s).to_array(), (t1 + s).to_array());
+                let (lo, hi) = (lo.to_array(), hi.to_array());
                 let mut step = None;
                 for l in 0..N {
                     if lanes >> l & 1 == 1 {
@@ -208,60 +217,37 @@ impl<'a> TriangleTree<'a> {
                     }
                 }
                 step
-            } else if let (Some(&org), Some(&inv), Some(&af), Some(&af_mask)) = (
-                lr.org.get(axis),
-                lr.inv.get(axis),
-                lr.above_first.get(axis),
-                lr.above_first_mask.get(axis),
-            ) {
+            } else if let (Some(&org), Some(&inv), Some(&above_first)) =
+                (lr.org.get(axis), lr.inv.get(axis), lr.above_first.get(axis))
+            {
                 // Compute parametric distance along each lane to the split plane.
                 let t_split = (V::splat(node.split()) - org) * inv;
-                // The single ray's two tests, in its order: plane beyond
-                // the interval (near child only), else before it (far only).
-                let near_only = (t_split - s).gt(t1);
-                let far_only = (t_split + s).lt(t0) & !near_only;
-                let near = lanes & !far_only;
-                let far = lanes & !near_only;
-                let below = (near & !af) | (far & af);
-                let above = (near & af) | (far & !af);
-                let child = node.upper();
-                if above == 0 {
-                    // One child for every lane: intervals unchanged.
-                    (node_idx, lanes) = (child, below);
+                // The single ray's rule lane by lane (`traverse.rs`): a
+                // lane visits its near child unless t_split < lo, its far
+                // child unless it visits the near one and t_split > hi. A
+                // NaN t_split visits both.
+                let near = lanes & !t_split.lt(lo);
+                let far = lanes & !(near & t_split.gt(hi));
+                let first = node.upper() + above_first;
+                let second = node.upper() + 1 - above_first;
+                let far_lo = lo.far_lo(t_split, s2);
+                if near == 0 {
+                    (node_idx, lanes, lo) = (second, far, far_lo);
                     continue;
                 }
-                if below == 0 {
-                    (node_idx, lanes) = (child + 1, above);
-                    continue;
+                if far != 0 {
+                    let Some(slot) = stack.get_mut(sp) else {
+                        return; // deeper than MAX_DEPTH: only an unchecked, invalid blob
+                    };
+                    *slot = Pending {
+                        node: second,
+                        lanes: far,
+                        lo: far_lo,
+                        hi,
+                    };
+                    sp += 1;
                 }
-                // Both children: the near cell ends at the plane, the far
-                // one starts there (each widened by the slack).
-                let t1_near = t1.min(t_split + s);
-                let t0_far = t0.max(t_split - s);
-                let below_cell = Pending {
-                    node: child,
-                    lanes: below,
-                    t0: V::select(af_mask, t0_far, t0),
-                    t1: V::select(af_mask, t1, t1_near),
-                };
-                let above_cell = Pending {
-                    node: child + 1,
-                    lanes: above,
-                    t0: V::select(af_mask, t0, t0_far),
-                    t1: V::select(af_mask, t1_near, t1),
-                };
-                // Visit first the child most lanes enter first.
-                let (first, second) = if 2 * (af & lanes).count_ones() > lanes.count_ones() {
-                    (above_cell, below_cell)
-                } else {
-                    (below_cell, above_cell)
-                };
-                let Some(slot) = stack.get_mut(sp) else {
-                    return; // deeper than MAX_DEPTH: only an unchecked, invalid blob
-                };
-                *slot = second;
-                sp += 1;
-                (node_idx, lanes, t0, t1) = (first.node, first.lanes, first.t0, first.t1);
+                (node_idx, lanes, hi) = (first, near, hi.near_hi(t_split, s2));
                 continue;
             } else {
                 // A leaf: test its triangles against the lanes' own intervals.
@@ -272,16 +258,16 @@ impl<'a> TriangleTree<'a> {
             };
             // Advance to the next far cell that can still hold a better hit
             // for some lane.
-            let cutoff = best_t + s;
+            let cutoff = best_t.cutoff(s2);
             loop {
                 if sp == 0 {
                     return;
                 }
                 sp -= 1;
                 let p = stack[sp];
-                let open = p.lanes & alive & p.t0.le(cutoff);
+                let open = p.lanes & alive & p.lo.le(cutoff);
                 if open != 0 {
-                    (node_idx, lanes, t0, t1) = (p.node, open, p.t0, p.t1.min(cutoff));
+                    (node_idx, lanes, lo, hi) = (p.node, open, p.lo, p.hi.min(cutoff));
                     break;
                 }
             }

@@ -29,6 +29,24 @@ fn seed_corpora_replay() {
     assert!(replay_dir("fuzz/corpus/tree_vs_brute", checks::tree_vs_brute) >= 3);
 }
 
+/// The raw-blob seeds of the `blob` target carry the whole-blob checksum
+/// (`wire::blob_checksum`), so the fuzzer starts from blobs that pass the
+/// checksum and reach structural validation, and these two load as trees.
+#[test]
+fn blob_seeds_pass_the_checksum() {
+    use kdray::kernel::TriangleTree;
+    for name in ["one_leaf", "split_x"] {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus/blob").join(name);
+        let data = std::fs::read(&path).unwrap();
+        // Byte 0 even: the rest is the blob, as is.
+        assert_eq!(data[0] & 1, 0, "{name}: not a raw-blob seed");
+        let blob = kdray::tools::blob::Blob::from_bytes(&data[1..]);
+        if let Err(e) = TriangleTree::from_bytes(blob.as_bytes()) {
+            panic!("{name}: {e}");
+        }
+    }
+}
+
 /// Found by `tree_vs_brute` (150 s run): 12 triangles, two of them
 /// reaching z = 4.26e37; the ray from (-3.75, 3.75, 9) hits triangle 5 at
 /// t = -0.0 (accepted: -0.0 >= tmin = 0.0) by brute force, the SAH tree

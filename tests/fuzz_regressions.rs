@@ -36,7 +36,9 @@ fn seed_corpora_replay() {
 fn blob_seeds_pass_the_checksum() {
     use kdray::kernel::TriangleTree;
     for name in ["one_leaf", "split_x"] {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus/blob").join(name);
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("fuzz/corpus/blob")
+            .join(name);
         let data = std::fs::read(&path).unwrap();
         // Byte 0 even: the rest is the blob, as is.
         assert_eq!(data[0] & 1, 0, "{name}: not a raw-blob seed");

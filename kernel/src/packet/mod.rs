@@ -254,12 +254,20 @@ impl<'a> TriangleTree<'a> {
                     *h = self.closest_hit(r);
                 }
             }
-            PacketWidth::Four => {
-                in_packets::<f32x4, _, 4>(self, rays, hits, |lr| self.closest_lanes(lr))
-            }
-            PacketWidth::Eight => {
-                in_packets::<f32x8, _, 8>(self, rays, hits, |lr| self.closest_lanes(lr))
-            }
+            PacketWidth::Four => in_packets::<f32x4, _, 4>(
+                self,
+                rays,
+                hits,
+                |lr| self.closest_lanes(lr),
+                |r| self.closest_hit(r),
+            ),
+            PacketWidth::Eight => in_packets::<f32x8, _, 8>(
+                self,
+                rays,
+                hits,
+                |lr| self.closest_lanes(lr),
+                |r| self.closest_hit(r),
+            ),
         }
     }
 
@@ -288,29 +296,63 @@ impl<'a> TriangleTree<'a> {
                     *o = self.any_hit(r);
                 }
             }
-            PacketWidth::Four => {
-                in_packets::<f32x4, _, 4>(self, rays, occluded, |lr| lane_bools(self.any_lanes(lr)))
-            }
-            PacketWidth::Eight => {
-                in_packets::<f32x8, _, 8>(self, rays, occluded, |lr| lane_bools(self.any_lanes(lr)))
-            }
+            PacketWidth::Four => in_packets::<f32x4, _, 4>(
+                self,
+                rays,
+                occluded,
+                |lr| lane_bools(self.any_lanes(lr)),
+                |r| self.any_hit(r),
+            ),
+            PacketWidth::Eight => in_packets::<f32x8, _, 8>(
+                self,
+                rays,
+                occluded,
+                |lr| lane_bools(self.any_lanes(lr)),
+                |r| self.any_hit(r),
+            ),
         }
     }
 }
 
 /// Traces `rays` in packets of `N` consecutive rays (the last one partly
-/// inactive) and writes each lane's answer to `out`.
+/// inactive) and writes each lane's answer to `out`; packets whose rays
+/// disagree on a direction sign go ray by ray through `one`.
 #[inline(always)]
 fn in_packets<V: Lanes<N>, T: Copy, const N: usize>(
     tree: &TriangleTree<'_>,
     rays: &[Ray],
     out: &mut [T],
     trace: impl Fn(&LaneRays<V, N>) -> [T; N],
+    one: impl Fn(&Ray) -> T,
 ) {
     for (rs, os) in rays.chunks(N).zip(out.chunks_mut(N)) {
+        if !signs_agree(rs.iter().map(|r| &r.dir)) {
+            for (o, r) in os.iter_mut().zip(rs) {
+                *o = one(r);
+            }
+            continue;
+        }
         let answers = trace(&LaneRays::from_fn(|l| rs.get(l).copied(), &tree.bounds));
         for (o, a) in os.iter_mut().zip(answers).take(rs.len()) {
             *o = a;
+        }
+    }
+}
+
+/// Whether the directions share their sign bits on every axis: the cheap
+/// test, before any lane is prepared, that the packet can walk together
+/// (`LaneRays::coherent` is the exact one). Random rays almost never pass
+/// it and are traced as single rays without the packet set-up (measured
+/// on the bunny's random rays, interleaved: 8-wide packets went from
+/// 0.85-1.02x to 0.98-1.2x single rays; camera tiles unchanged).
+#[inline(always)]
+fn signs_agree<'r>(mut dirs: impl Iterator<Item = &'r [f32; 3]>) -> bool {
+    let sign = |d: &[f32; 3]| d.map(f32::is_sign_negative);
+    match dirs.next() {
+        None => true,
+        Some(first) => {
+            let s = sign(first);
+            dirs.all(|d| sign(d) == s)
         }
     }
 }

@@ -210,19 +210,31 @@ fn slice_entry_points_match_single_rays() {
     let tris = scene(&mut rng, 500, false);
     let blob = &blobs(&tris)[0];
     let tree = blob.tree().unwrap();
-    let rays: Vec<Ray> = (0..1003).map(|_| random_ray(&mut rng)).collect();
-    let want: Vec<[u32; 4]> = rays.iter().map(|r| tree.closest_hit(r).bits()).collect();
-    let want_any: Vec<bool> = rays.iter().map(|r| tree.any_hit(r)).collect();
-    for width in [PacketWidth::One, PacketWidth::Four, PacketWidth::Eight] {
-        let mut hits = vec![Hit::OCCLUDED; rays.len()];
-        tree.closest_hits_with(width, &rays, &mut hits);
-        assert_eq!(
-            hits.iter().map(Hit::bits).collect::<Vec<_>>(),
-            want,
-            "{width:?}"
-        );
-        let mut occ = vec![false; rays.len()];
-        tree.any_hits_with(width, &rays, &mut occ);
-        assert_eq!(occ, want_any, "{width:?}");
+    let random: Vec<Ray> = (0..1003).map(|_| random_ray(&mut rng)).collect();
+    // The same rays with shared direction signs: those packets walk
+    // together (mixed-sign ones go ray by ray).
+    let coherent: Vec<Ray> = random
+        .iter()
+        .map(|r| Ray {
+            dir: r.dir.map(f32::abs),
+            ..*r
+        })
+        .collect();
+    for rays in [random, coherent] {
+        let want: Vec<[u32; 4]> = rays.iter().map(|r| tree.closest_hit(r).bits()).collect();
+        let want_any: Vec<bool> = rays.iter().map(|r| tree.any_hit(r)).collect();
+        assert!(want_any.iter().filter(|&&a| a).count() > 100);
+        for width in [PacketWidth::One, PacketWidth::Four, PacketWidth::Eight] {
+            let mut hits = vec![Hit::OCCLUDED; rays.len()];
+            tree.closest_hits_with(width, &rays, &mut hits);
+            assert_eq!(
+                hits.iter().map(Hit::bits).collect::<Vec<_>>(),
+                want,
+                "{width:?}"
+            );
+            let mut occ = vec![false; rays.len()];
+            tree.any_hits_with(width, &rays, &mut occ);
+            assert_eq!(occ, want_any, "{width:?}");
+        }
     }
 }

@@ -8,7 +8,8 @@
 //!   and [`any_hit4`](TriangleTree::any_hit4) / [`any_hit8`](TriangleTree::any_hit8)
 //!   trace one packet with `wide`'s `f32x4` / `f32x8`.
 //! - [`TriangleTree::closest_hits`] and [`TriangleTree::any_hits`] take a
-//!   slice of rays and form packets of consecutive rays themselves.
+//!   slice of rays and form packets of consecutive rays themselves: order
+//!   the rays in small image tiles (4x2 pixels for 8 lanes).
 //! - [`TriangleTree::closest_hit_lanes`] / [`any_hit_lanes`](TriangleTree::any_hit_lanes)
 //!   are the scalar path (one single ray per lane), always compiled; the
 //!   `scalar-packets` feature makes every packet entry point take it.
@@ -18,9 +19,11 @@
 //! ([`ShearedRay`](crate::ShearedRay), [`CellRay`](crate::CellRay)), runs
 //! the same triangle test in lanes (same operations, same order, no FMA,
 //! no approximate reciprocal, the same `f64` fallback) and keeps hits by
-//! the same [`Closest`](crate::Closest) rule; the walk follows the single
-//! ray's slack rules per lane (`walk.rs` explains why visiting a cell out
-//! of order or a few extra cells cannot change an answer).
+//! the same [`Closest`](crate::Closest) rule; the walk applies the single
+//! ray's slack rule per lane, by the same code (`walk.rs` explains why the
+//! few extra cells a lane visits for its neighbours cannot change an
+//! answer). Packets whose rays disagree on a direction sign are traced
+//! ray by ray: they would not walk together anyway.
 
 mod intersect;
 mod lane_rays;

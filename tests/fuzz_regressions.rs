@@ -60,3 +60,17 @@ fn tree_vs_brute_sah_misses_t_neg_zero_hit_on_huge_triangle() {
         "../fuzz/regressions/tree_vs_brute/sah_misses_t_neg_zero_hit_on_huge_triangle"
     ));
 }
+
+/// Found by `tree_vs_brute` (60 s run on the packets2 branch): the ray
+/// starts on an edge of the scene box (y = z = -8, the bounds' minimum)
+/// with a subnormal y direction (-1e-45, so 1/dir = -inf). The slab test
+/// computed 0 * -inf = NaN for the y = -8 plane, kept only the other end
+/// (-inf) and rejected the ray; brute force hits triangle 4, whose edge
+/// the origin lies on, at t = 2.3e-9. Fixed in `CellRay::new` (the origin's
+/// own plane is met at t = 0).
+#[test]
+fn tree_vs_brute_sah_misses_hit_at_origin_on_box_edge_subnormal_dir() {
+    checks::tree_vs_brute(include_bytes!(
+        "../fuzz/regressions/tree_vs_brute/sah_misses_hit_at_origin_on_edge_subnormal_dir"
+    ));
+}

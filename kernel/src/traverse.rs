@@ -129,8 +129,14 @@ impl CellRay {
                 }
                 continue;
             }
-            let ta = (bounds.min[a] - org[a]) * inv[a];
-            let tb = (bounds.max[a] - org[a]) * inv[a];
+            // An origin on the slab's plane with an infinite 1/dir (a
+            // subnormal direction component) gives 0 * inf = NaN: the ray
+            // meets that plane at t = 0, as any finite 1/dir says. (Taken
+            // as NaN, the min/max below dropped the slab's other end and
+            // rejected a ray the triangle test hits at t ~ 0.)
+            let at_plane = |t: f32| if t.is_nan() { 0.0 } else { t };
+            let ta = at_plane((bounds.min[a] - org[a]) * inv[a]);
+            let tb = at_plane((bounds.max[a] - org[a]) * inv[a]);
             enter = enter.max(ta.min(tb));
             exit = exit.min(ta.max(tb));
         }

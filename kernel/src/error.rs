@@ -203,8 +203,4 @@ fn kind_name(kind: u32) -> &'static str {
     }
 }
 
-#[cfg(feature = "std")]
-extern crate std;
-
-#[cfg(feature = "std")]
-impl std::error::Error for BlobError {}
+impl core::error::Error for BlobError {}

@@ -20,6 +20,7 @@
 //!   inverted `[tmin, tmax]`) miss.
 #![no_std]
 #![deny(missing_docs)]
+#![warn(clippy::std_instead_of_core, clippy::alloc_instead_of_core)]
 
 mod error;
 pub mod node;

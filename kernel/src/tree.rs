@@ -70,8 +70,8 @@ impl<'a> TriangleTree<'a> {
     /// # Panics
     /// Never, for any input.
     pub fn from_bytes(bytes: &'a [u8]) -> Result<Self, BlobError> {
-        let (header, nodes, prims, triangles, body) = Self::sections(bytes)?;
-        wire::verify_checksum(header, body)?;
+        let (header, nodes, prims, triangles, whole) = Self::sections(bytes)?;
+        wire::verify_checksum(header, whole)?;
         let bounds = Bounds {
             min: header.bounds_min,
             max: header.bounds_max,
@@ -126,8 +126,8 @@ impl<'a> TriangleTree<'a> {
         let nodes = s.take("nodes", header.node_count)?;
         let prims = s.take("primitive indices", header.index_count)?;
         let triangles = s.take("triangles", header.item_count)?;
-        let body = s.finish()?;
-        Ok((header, nodes, prims, triangles, body))
+        let whole = s.finish()?;
+        Ok((header, nodes, prims, triangles, whole))
     }
 
     /// A view of a tree held in memory (a builder's output), validated like

@@ -10,7 +10,7 @@
 //!     24     4  node count
 //!     28     4  primitive-index count
 //!     32     4  item count (triangles or points)
-//!     36     4  checksum of every byte after the header
+//!     36     4  checksum of the whole blob, this field read as zero
 //!     40    24  scene bounds: min x y z, max x y z (f32)
 //!     64        sections, each 4-byte aligned and sized by the counts above:
 //!               nodes (8 B each), primitive indices (4 B each),
@@ -20,8 +20,10 @@
 //!
 //! Everything is 4-byte aligned, so a blob in 4-byte aligned memory is read
 //! in place: [`Header`] and each section are cast from the bytes, never
-//! copied. The checksum is FNV-1a over little-endian 32-bit words (every
-//! section is a multiple of 4 bytes), fast enough to verify on load.
+//! copied. The checksum is FNV-1a over the blob's little-endian 32-bit words
+//! (every section is a multiple of 4 bytes) with the checksum field read as
+//! zero, so it covers the header's counts and bounds too; fast enough to
+//! verify on every load.
 
 use crate::error::BlobError;
 use bytemuck::{Pod, Zeroable};
@@ -38,6 +40,8 @@ pub const KIND_TRIANGLES: u32 = 1;
 pub const KIND_POINTS: u32 = 2;
 /// The header's size in bytes.
 pub const HEADER_LEN: usize = 64;
+/// Where the checksum field sits in the header.
+pub const CHECKSUM_OFFSET: usize = 36;
 
 /// The blob header. `repr(C)`, Pod, 64 bytes (layout in the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
@@ -59,7 +63,7 @@ pub struct Header {
     pub index_count: u32,
     /// Number of triangles or points.
     pub item_count: u32,
-    /// [`checksum`] of every byte after the header.
+    /// [`blob_checksum`] of the whole blob.
     pub checksum: u32,
     /// Scene bounds: min x, y, z.
     pub bounds_min: [f32; 3],
@@ -72,14 +76,20 @@ const _: () = assert!(core::mem::size_of::<Header>() == HEADER_LEN);
 const FNV_OFFSET: u32 = 0x811C_9DC5;
 const FNV_PRIME: u32 = 0x0100_0193;
 
-/// FNV-1a over the little-endian 32-bit words of `bytes` (a trailing
-/// partial word, which no valid blob has, is folded in byte by byte).
+/// FNV-1a over the little-endian 32-bit words of a whole blob, the word at
+/// [`CHECKSUM_OFFSET`] read as zero (a trailing partial word, which no
+/// valid blob has, is folded in byte by byte).
 #[must_use]
-pub fn checksum(bytes: &[u8]) -> u32 {
+pub fn blob_checksum(bytes: &[u8]) -> u32 {
     let mut words = bytes.chunks_exact(4);
     let mut h = FNV_OFFSET;
-    for w in &mut words {
-        h = (h ^ u32::from_le_bytes([w[0], w[1], w[2], w[3]])).wrapping_mul(FNV_PRIME);
+    for (i, w) in (&mut words).enumerate() {
+        let word = if i * 4 == CHECKSUM_OFFSET {
+            0
+        } else {
+            u32::from_le_bytes([w[0], w[1], w[2], w[3]])
+        };
+        h = (h ^ word).wrapping_mul(FNV_PRIME);
     }
     for &b in words.remainder() {
         h = (h ^ u32::from(b)).wrapping_mul(FNV_PRIME);
@@ -168,7 +178,7 @@ impl<'a> Sections<'a> {
     }
 
     /// Checks that the sections end exactly at the end of the input and
-    /// returns the bytes they cover (what the checksum is over).
+    /// returns the whole blob (what the checksum is over).
     pub(crate) fn finish(self) -> Result<&'a [u8], BlobError> {
         if self.pos != self.bytes.len() {
             return Err(BlobError::TrailingBytes {
@@ -176,13 +186,13 @@ impl<'a> Sections<'a> {
                 have: self.bytes.len(),
             });
         }
-        Ok(&self.bytes[HEADER_LEN..])
+        Ok(self.bytes)
     }
 }
 
-/// Checks the header's checksum against the section bytes. O(n).
-pub(crate) fn verify_checksum(header: &Header, body: &[u8]) -> Result<(), BlobError> {
-    let computed = checksum(body);
+/// Checks the header's checksum against the whole blob. O(n).
+pub(crate) fn verify_checksum(header: &Header, blob: &[u8]) -> Result<(), BlobError> {
+    let computed = blob_checksum(blob);
     if computed == header.checksum {
         Ok(())
     } else {

@@ -2,7 +2,8 @@
 
 use crate::build::BuiltTree;
 use kdray_kernel::wire::{
-    checksum, Header, ENDIAN_CHECK, HEADER_LEN, KIND_TRIANGLES, MAGIC, VERSION,
+    blob_checksum, Header, CHECKSUM_OFFSET, ENDIAN_CHECK, HEADER_LEN, KIND_TRIANGLES, MAGIC,
+    VERSION,
 };
 use kdray_kernel::{BlobError, Triangle, TriangleTree};
 use std::path::Path;
@@ -94,13 +95,14 @@ pub fn write_triangle_tree(tree: &BuiltTree, triangles: &[Triangle]) -> Blob {
         node_count: (tree.nodes.len() as u32),
         index_count: (tree.prims.len() as u32),
         item_count: (triangles.len() as u32),
-        checksum: checksum(bytemuck::cast_slice(&body)),
+        checksum: 0,
         bounds_min: tree.bounds.min,
         bounds_max: tree.bounds.max,
     };
     let mut words = Vec::with_capacity(HEADER_LEN / 4 + body.len());
     words.extend_from_slice(bytemuck::cast_slice(&[header]));
     words.extend_from_slice(&body);
+    words[CHECKSUM_OFFSET / 4] = blob_checksum(bytemuck::cast_slice(&words));
     let len = words.len() * 4;
     Blob { words, len }
 }

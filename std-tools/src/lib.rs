@@ -12,5 +12,10 @@
 
 pub mod blob;
 pub mod build;
+pub mod camera;
+pub mod io;
 pub mod mesh;
+pub mod rng;
+pub mod scene;
 pub mod stats;
+pub mod trace;

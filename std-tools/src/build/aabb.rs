@@ -27,14 +27,11 @@ impl Aabb {
     /// The bounds of a triangle.
     #[must_use]
     pub fn of_triangle(t: &Triangle) -> Aabb {
-        let mut b = Aabb::EMPTY;
-        for p in t.v {
-            for a in 0..3 {
-                b.min[a] = b.min[a].min(p[a]);
-                b.max[a] = b.max[a].max(p[a]);
-            }
+        let [p, q, r] = t.v;
+        Aabb {
+            min: std::array::from_fn(|a| p[a].min(q[a]).min(r[a])),
+            max: std::array::from_fn(|a| p[a].max(q[a]).max(r[a])),
         }
-        b
     }
 
     /// The smallest box holding both.

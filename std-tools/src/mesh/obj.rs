@@ -10,7 +10,17 @@ use std::path::Path;
 /// lines consumed, so that when `tobj` stops at a bad line we can say which.
 struct LineCounting<R> {
     inner: R,
+    /// Newlines consumed.
     lines: usize,
+    /// Bytes of a line consumed after the last newline.
+    mid_line: bool,
+}
+
+impl<R> LineCounting<R> {
+    /// The 1-based number of the line being read (or just read).
+    fn current_line(&self) -> usize {
+        self.lines + usize::from(self.mid_line)
+    }
 }
 
 impl<R: BufRead> Read for LineCounting<R> {
@@ -56,6 +66,7 @@ pub fn load_obj(path: &Path) -> Result<Vec<Triangle>, MeshError> {
     let mut reader = LineCounting {
         inner: BufReader::new(file),
         lines: 0,
+        mid_line: false,
     };
     let opts = tobj::LoadOptions {
         triangulate: true,
@@ -66,8 +77,11 @@ pub fn load_obj(path: &Path) -> Result<Vec<Triangle>, MeshError> {
     let (models, _materials) =
         tobj::load_obj_buf(&mut reader, &opts, |_| Err(tobj::LoadError::OpenFileFailed)).map_err(
             |e| {
-                let line = reader.lines + 1;
-                MeshError::new(path, Some(line), format!("malformed OBJ: {e}"))
+                MeshError::new(
+                    path,
+                    Some(reader.current_line()),
+                    format!("malformed OBJ: {e}"),
+                )
             },
         )?;
     let mut tris = Vec::new();

@@ -1,0 +1,56 @@
+//! Single-ray closest hit: the tree against brute force on the same rays,
+//! on the bunny (when `../shared/meshes` is there) and the built-in scene.
+//! Compare the ratio within one run; the machine is shared and noisy.
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use kdray::kernel::{closest_hit_brute, Ray, Triangle};
+use kdray::tools::blob::{write_triangle_tree, Blob};
+use kdray::tools::build::{build, Aabb, BuildParams, BuilderKind};
+use kdray::tools::camera::{random_rays, Camera};
+use kdray::tools::{mesh, scene};
+use std::hint::black_box;
+use std::path::PathBuf;
+
+fn scenes() -> Vec<(String, Vec<Triangle>, Aabb)> {
+    let s = scene::teapot_in_stadium();
+    let mut out = vec![("teapot-stadium".to_string(), s.triangles, s.focus)];
+    let bunny = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/meshes/stanford-bunny.obj"));
+    match mesh::load(&bunny) {
+        Ok(t) => {
+            let b = t.iter().fold(Aabb::EMPTY, |b, x| b.union(&Aabb::of_triangle(x)));
+            out.push(("bunny".to_string(), t, b));
+        }
+        Err(e) => eprintln!("bunny skipped: {e}"),
+    }
+    out
+}
+
+fn trace(c: &mut Criterion) {
+    for (name, tris, focus) in scenes() {
+        let built = build(&tris, BuilderKind::default(), &BuildParams::default()).unwrap();
+        let blob: Blob = write_triangle_tree(&built, &tris);
+        let tree = blob.tree().unwrap();
+        let bounds = tris.iter().fold(Aabb::EMPTY, |b, x| b.union(&Aabb::of_triangle(x)));
+        let sets: [(&str, Vec<Ray>); 2] = [
+            ("camera", Camera::framing(&focus).rays(256, 256)),
+            ("random", random_rays(&bounds, 65_536, 1)),
+        ];
+        let mut g = c.benchmark_group(format!("trace/{name}"));
+        g.sample_size(10);
+        for (kind, rays) in &sets {
+            g.throughput(Throughput::Elements(rays.len() as u64));
+            g.bench_with_input(BenchmarkId::new("tree", kind), rays, |b, rays| {
+                b.iter(|| rays.iter().map(|r| tree.closest_hit(black_box(r)).t).sum::<f32>())
+            });
+            let few = &rays[..64];
+            g.throughput(Throughput::Elements(few.len() as u64));
+            g.bench_with_input(BenchmarkId::new("brute", kind), few, |b, rays| {
+                b.iter(|| rays.iter().map(|r| closest_hit_brute(&tris, black_box(r)).t).sum::<f32>())
+            });
+        }
+        g.finish();
+    }
+}
+
+criterion_group!(benches, trace);
+criterion_main!(benches);

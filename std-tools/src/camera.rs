@@ -1,0 +1,74 @@
+//! A pinhole camera and the ray sets the CLI, tests and benches share.
+
+use crate::build::Aabb;
+use crate::rng::Rng;
+use glam::Vec3;
+use kdray_kernel::Ray;
+
+/// A pinhole camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Eye position.
+    pub eye: Vec3,
+    /// The point looked at.
+    pub target: Vec3,
+    /// Up direction.
+    pub up: Vec3,
+    /// Vertical field of view in degrees.
+    pub fov_deg: f32,
+}
+
+impl Camera {
+    /// A camera framing `focus` from the front-right-above, the whole box in view.
+    #[must_use]
+    pub fn framing(focus: &Aabb) -> Camera {
+        let lo = Vec3::from(focus.min);
+        let hi = Vec3::from(focus.max);
+        let center = (lo + hi) * 0.5;
+        let radius = ((hi - lo).length() * 0.5).max(1e-6);
+        let fov_deg = 40.0f32;
+        let dist = radius / (fov_deg.to_radians() * 0.5).sin() * 1.05;
+        let dir = Vec3::new(0.55, 0.35, 1.0).normalize();
+        Camera {
+            eye: center + dir * dist,
+            target: center,
+            up: Vec3::Y,
+            fov_deg,
+        }
+    }
+
+    /// The ray through the centre of pixel `(x, y)` of a `w` x `h` image
+    /// (row 0 at the top).
+    #[must_use]
+    pub fn ray(&self, x: u32, y: u32, w: u32, h: u32) -> Ray {
+        let fwd = (self.target - self.eye).normalize_or(Vec3::NEG_Z);
+        let right = fwd.cross(self.up).normalize_or(Vec3::X);
+        let up = right.cross(fwd);
+        let half = (self.fov_deg.to_radians() * 0.5).tan();
+        let aspect = w as f32 / h.max(1) as f32;
+        let sx = ((x as f32 + 0.5) / w as f32 * 2.0 - 1.0) * half * aspect;
+        let sy = (1.0 - (y as f32 + 0.5) / h as f32 * 2.0) * half;
+        Ray::new(self.eye, fwd + sx * right + sy * up)
+    }
+
+    /// All `w * h` rays, row by row.
+    #[must_use]
+    pub fn rays(&self, w: u32, h: u32) -> Vec<Ray> {
+        (0..h)
+            .flat_map(|y| (0..w).map(move |x| self.ray(x, y, w, h)))
+            .collect()
+    }
+}
+
+/// `n` rays with origins uniform in `bounds` and directions uniform on the
+/// sphere (the incoherent case), from `seed`.
+#[must_use]
+pub fn random_rays(bounds: &Aabb, n: usize, seed: u64) -> Vec<Ray> {
+    let mut rng = Rng::new(seed);
+    (0..n)
+        .map(|_| {
+            let o: [f32; 3] = std::array::from_fn(|a| rng.range(bounds.min[a], bounds.max[a]));
+            Ray::new(Vec3::from(o), Vec3::from(rng.unit_vector()))
+        })
+        .collect()
+}

@@ -1,0 +1,97 @@
+//! `kdray demo` (and `kdray` with no command): the built-in scene, built
+//! and traced, with the tree's speed beside brute force, on camera rays.
+
+use super::report::print_stats;
+use super::{thread_pool, CmdResult};
+use kdray_kernel::{closest_hit_brute, Hit};
+use kdray_tools::blob::write_triangle_tree;
+use kdray_tools::build::{build, BuildParams, BuilderKind};
+use kdray_tools::camera::Camera;
+use kdray_tools::scene::teapot_in_stadium;
+use kdray_tools::stats::{tree_stats, CostModel};
+use kdray_tools::trace::{trace_into, trace_serial, Query};
+use std::time::Instant;
+
+/// Arguments of `kdray demo`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct Args {
+    /// Image width and height of the camera rays.
+    #[arg(long, default_value_t = 512)]
+    size: u32,
+    /// Rays checked against brute force.
+    #[arg(long, default_value_t = 2000)]
+    brute_sample: usize,
+}
+
+impl Default for Args {
+    fn default() -> Self {
+        Args {
+            size: 512,
+            brute_sample: 2000,
+        }
+    }
+}
+
+pub(crate) fn run(a: &Args) -> CmdResult {
+    let scene = teapot_in_stadium();
+    println!(
+        "built-in scene: teapot in a stadium, {} triangles",
+        scene.triangles.len()
+    );
+    let params = BuildParams::default();
+    let t = Instant::now();
+    let built = build(&scene.triangles, BuilderKind::default(), &params)?;
+    let build_ms = t.elapsed().as_secs_f64() * 1e3;
+    let blob = write_triangle_tree(&built, &scene.triangles);
+    let tree = blob.tree()?;
+    println!("  build              {build_ms:.1} ms");
+    print_stats(&tree_stats(&tree, CostModel::from_params(&params)));
+
+    let rays = Camera::framing(&scene.focus).rays(a.size, a.size);
+    let mut hits = vec![Hit::MISS; rays.len()];
+    let t = Instant::now();
+    trace_serial(&tree, &rays, &mut hits, Query::Closest);
+    let one = t.elapsed().as_secs_f64();
+    let pool = thread_pool(None)?;
+    let t = Instant::now();
+    pool.install(|| trace_into(&tree, &rays, &mut hits, Query::Closest));
+    let all = t.elapsed().as_secs_f64();
+    let hit = hits.iter().filter(|h| h.is_hit()).count();
+    println!(
+        "traced {}x{} camera rays ({hit} hit): {:.2} Mrays/s on 1 thread, {:.2} Mrays/s on {} threads",
+        a.size,
+        a.size,
+        rays.len() as f64 / one / 1e6,
+        rays.len() as f64 / all / 1e6,
+        pool.current_num_threads()
+    );
+
+    // Brute force over every triangle on a sample: the tree must agree bit
+    // for bit, and the ratio of times is what the tree buys.
+    let step = (rays.len() / a.brute_sample.max(1)).max(1);
+    let sample: Vec<_> = rays.iter().step_by(step).collect();
+    let t = Instant::now();
+    let brute: Vec<Hit> = sample
+        .iter()
+        .map(|r| closest_hit_brute(&scene.triangles, r))
+        .collect();
+    let brute_s = t.elapsed().as_secs_f64() / sample.len().max(1) as f64;
+    let tree_s = one / rays.len().max(1) as f64;
+    let mismatches = sample
+        .iter()
+        .zip(&brute)
+        .filter(|(r, b)| tree.closest_hit(r).bits() != b.bits())
+        .count();
+    println!(
+        "brute force on {} of those rays: {:.4} Mrays/s; the tree is {:.0}x faster and agrees on {}/{} bit for bit",
+        sample.len(),
+        1.0 / brute_s / 1e6,
+        brute_s / tree_s,
+        sample.len() - mismatches,
+        sample.len()
+    );
+    if mismatches > 0 {
+        return Err(format!("{mismatches} rays disagree with brute force").into());
+    }
+    Ok(())
+}

@@ -1,0 +1,44 @@
+//! `kdray info TREE`: validate a blob and report its statistics.
+
+use super::json::JsonObject;
+use super::report::{print_stats, stats_json};
+use super::CmdResult;
+use kdray_tools::blob::Blob;
+use kdray_tools::build::BuildParams;
+use kdray_tools::stats::{tree_stats, CostModel};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `kdray info`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct Args {
+    /// The tree blob.
+    tree: PathBuf,
+    /// Print one JSON object instead of the summary.
+    #[arg(long)]
+    json: bool,
+}
+
+pub(crate) fn run(a: &Args) -> CmdResult {
+    let blob = Blob::read(&a.tree).map_err(|e| format!("{}: {e}", a.tree.display()))?;
+    let t = Instant::now();
+    let tree = blob
+        .tree()
+        .map_err(|e| format!("{}: invalid tree blob: {e}", a.tree.display()))?;
+    let validate_ms = t.elapsed().as_secs_f64() * 1e3;
+    let stats = tree_stats(&tree, CostModel::from_params(&BuildParams::default()));
+    if a.json {
+        let j = JsonObject::default()
+            .str("tree", &a.tree.display().to_string())
+            .str("valid", "yes")
+            .num("validate_ms", validate_ms);
+        println!("{}", stats_json(j, &stats).finish());
+    } else {
+        println!(
+            "{}: valid kdray triangle tree (validated in {validate_ms:.1} ms)",
+            a.tree.display()
+        );
+        print_stats(&stats);
+    }
+    Ok(())
+}

@@ -1,0 +1,62 @@
+//! Argument parsing and dispatch: one file per subcommand.
+
+mod build;
+mod demo;
+mod info;
+mod json;
+mod report;
+mod trace;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// kdray: k-d tree ray tracing. With no command, runs the built-in demo.
+#[derive(Parser, Debug)]
+#[command(name = "kdray", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Build a tree from a mesh and write it as a blob.
+    Build(build::Args),
+    /// Validate a tree blob and print its statistics.
+    Info(info::Args),
+    /// Trace a ray file against a tree, writing a hit file.
+    Trace(trace::Args),
+    /// Build and trace the built-in teapot-in-a-stadium scene (the default).
+    Demo(demo::Args),
+}
+
+/// What a subcommand returns: an error message for the user, already
+/// naming the file and place.
+type CmdResult = Result<(), Box<dyn std::error::Error>>;
+
+pub(crate) fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Some(Command::Build(a)) => build::run(&a),
+        Some(Command::Info(a)) => info::run(&a),
+        Some(Command::Trace(a)) => trace::run(&a),
+        Some(Command::Demo(a)) => demo::run(&a),
+        None => demo::run(&demo::Args::default()),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("kdray: error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// A rayon pool of `threads` workers (all cores when `None`).
+fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, Box<dyn std::error::Error>> {
+    let n = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    if n == 0 {
+        return Err("--threads must be at least 1".into());
+    }
+    Ok(rayon::ThreadPoolBuilder::new().num_threads(n).build()?)
+}

@@ -1,0 +1,40 @@
+//! Tree statistics as a human summary or JSON fields (shared by build,
+//! info and demo).
+
+use super::json::JsonObject;
+use kdray_tools::stats::TreeStats;
+
+/// Adds the statistics to a JSON object.
+pub(crate) fn stats_json(j: JsonObject, s: &TreeStats) -> JsonObject {
+    j.num("triangles", s.triangles as f64)
+        .num("nodes", s.nodes as f64)
+        .num("leaves", s.leaves as f64)
+        .num("empty_leaves", s.empty_leaves as f64)
+        .num("max_depth", f64::from(s.max_depth))
+        .num("mean_leaf_depth", s.mean_leaf_depth)
+        .num("refs_per_triangle", s.refs_per_triangle)
+        .num("mean_leaf_size", s.mean_leaf_size)
+        .num("sah_cost", s.sah_cost)
+        .num("bytes", s.bytes as f64)
+        .num("bytes_per_triangle", s.bytes_per_triangle)
+}
+
+/// Prints the statistics for a person.
+pub(crate) fn print_stats(s: &TreeStats) {
+    println!("  triangles          {}", s.triangles);
+    println!(
+        "  nodes              {} ({} leaves, {} empty)",
+        s.nodes, s.leaves, s.empty_leaves
+    );
+    println!(
+        "  depth              max {}, mean leaf {:.1}",
+        s.max_depth, s.mean_leaf_depth
+    );
+    println!("  refs per triangle  {:.2}", s.refs_per_triangle);
+    println!("  tris per full leaf {:.2}", s.mean_leaf_size);
+    println!("  SAH cost           {:.2}", s.sah_cost);
+    println!(
+        "  size               {} bytes ({:.1} per triangle)",
+        s.bytes, s.bytes_per_triangle
+    );
+}

@@ -1,0 +1,108 @@
+//! The built-in scene: a teapot in a stadium. A detailed torus knot (the
+//! "teapot", ~33k triangles) stands on the floor of a hollow stadium a
+//! hundred times its size, with long thin axis-aligned bleachers: the case
+//! the lecture says k-d trees handle and octrees do not. Generated, so the
+//! project needs no mesh file to run.
+
+use crate::build::Aabb;
+use kdray_kernel::Triangle;
+use std::f32::consts::TAU;
+
+/// The scene's triangles and the box around its detailed object.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// All triangles: the knot first, then the stadium.
+    pub triangles: Vec<Triangle>,
+    /// The bounds of the knot (what a camera should frame).
+    pub focus: Aabb,
+}
+
+/// The knot's path: a (2, 3) torus knot of major radius 1.
+fn knot(t: f32) -> glam::Vec3 {
+    let (p, q) = (2.0, 3.0);
+    let r = 1.0 + 0.4 * (q * t).cos();
+    glam::Vec3::new(
+        r * (p * t).cos(),
+        0.4 * (q * t).sin() + 0.8,
+        r * (p * t).sin(),
+    )
+}
+
+/// A tube of radius `radius` around the knot, `segments` x `sides` quads.
+fn tube(segments: usize, sides: usize, radius: f32) -> Vec<Triangle> {
+    let ring = |i: usize| {
+        let t = i as f32 / segments as f32 * TAU;
+        let c = knot(t);
+        let tangent = (knot(t + 1e-3) - knot(t - 1e-3)).normalize();
+        let n = tangent.cross(glam::Vec3::Y).normalize();
+        let b = tangent.cross(n);
+        (0..sides)
+            .map(|j| {
+                let a = j as f32 / sides as f32 * TAU;
+                (c + radius * (a.cos() * n + a.sin() * b)).to_array()
+            })
+            .collect::<Vec<_>>()
+    };
+    let rings: Vec<_> = (0..segments).map(ring).collect();
+    let mut tris = Vec::with_capacity(segments * sides * 2);
+    for i in 0..segments {
+        let (r0, r1) = (&rings[i], &rings[(i + 1) % segments]);
+        for j in 0..sides {
+            let k = (j + 1) % sides;
+            tris.push(Triangle {
+                v: [r0[j], r1[j], r1[k]],
+            });
+            tris.push(Triangle {
+                v: [r0[j], r1[k], r0[k]],
+            });
+        }
+    }
+    tris
+}
+
+/// The two triangles of an axis-aligned rectangle with corners `a` and `b`
+/// (equal in one coordinate).
+fn rect(a: [f32; 3], b: [f32; 3]) -> [Triangle; 2] {
+    let flat = (0..3).find(|&i| a[i] == b[i]).unwrap_or(1);
+    let (u, v) = ((flat + 1) % 3, (flat + 2) % 3);
+    let corner = |cu: f32, cv: f32| {
+        let mut p = a;
+        p[u] = cu;
+        p[v] = cv;
+        p
+    };
+    let (p0, p1, p2, p3) = (
+        corner(a[u], a[v]),
+        corner(b[u], a[v]),
+        corner(b[u], b[v]),
+        corner(a[u], b[v]),
+    );
+    [Triangle { v: [p0, p1, p2] }, Triangle { v: [p0, p2, p3] }]
+}
+
+/// The built-in teapot-in-a-stadium scene (deterministic).
+#[must_use]
+pub fn teapot_in_stadium() -> Scene {
+    let mut triangles = tube(1024, 16, 0.18);
+    let focus = triangles
+        .iter()
+        .fold(Aabb::EMPTY, |b, t| b.union(&Aabb::of_triangle(t)));
+    let s = 100.0;
+    // The stadium: floor, four walls and a ceiling, a hundred knots wide.
+    triangles.extend(rect([-s, 0.0, -s], [s, 0.0, s]));
+    triangles.extend(rect([-s, s, -s], [s, s, s]));
+    triangles.extend(rect([-s, 0.0, -s], [-s, s, s]));
+    triangles.extend(rect([s, 0.0, -s], [s, s, s]));
+    triangles.extend(rect([-s, 0.0, -s], [s, s, -s]));
+    triangles.extend(rect([-s, 0.0, s], [s, s, s]));
+    // Bleachers: long, thin, axis-aligned steps along two sides.
+    for step in 0..40 {
+        let h = 1.0 + step as f32;
+        let d = s - 2.0 * step as f32;
+        triangles.extend(rect([-s, h, d - 2.0], [s, h, d]));
+        triangles.extend(rect([-s, h - 1.0, d - 2.0], [s, h, d - 2.0]));
+        triangles.extend(rect([d - 2.0, h, -s], [d, h, s]));
+        triangles.extend(rect([d - 2.0, h - 1.0, -s], [d - 2.0, h, s]));
+    }
+    Scene { triangles, focus }
+}

@@ -1,0 +1,169 @@
+//! The `kdray` binary end to end: happy paths, and every bad input gets a
+//! clear error naming the file, never a panic or a half-written output.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn kdray(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_kdray"))
+        .args(args)
+        .output()
+        .expect("run kdray")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("kdray-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn write(path: &Path, bytes: &[u8]) -> String {
+    std::fs::write(path, bytes).unwrap();
+    path.display().to_string()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+const QUAD_OBJ: &[u8] =
+    b"# two quads\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nf 1 2 3 4\nf 1 2 5\n";
+
+fn ray_bytes(rays: &[[f32; 8]]) -> Vec<u8> {
+    rays.iter()
+        .flatten()
+        .flat_map(|f| f.to_le_bytes())
+        .collect()
+}
+
+#[test]
+fn build_info_trace_round_trip() {
+    let obj = write(&tmp("quad.obj"), QUAD_OBJ);
+    let tree = tmp("quad.kdt").display().to_string();
+    let o = kdray(&["build", &obj, "-o", &tree, "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json = stdout(&o);
+    for key in [
+        "\"build_ms\"",
+        "\"nodes\"",
+        "\"leaves\"",
+        "\"max_depth\"",
+        "\"sah_cost\"",
+        "\"bytes\"",
+        "\"triangles\": 3",
+    ] {
+        assert!(json.contains(key), "{key} missing from {json}");
+    }
+    let o = kdray(&["info", &tree, "--json"]);
+    assert!(
+        o.status.success() && stdout(&o).contains("\"triangles\": 3"),
+        "{}",
+        stderr(&o)
+    );
+
+    // Down onto the quad at (0.25, 0.5): the fan (v0,v1,v2),(v0,v2,v3) puts
+    // it in triangle 1; a ray off to the side misses.
+    let rays = ray_bytes(&[
+        [0.25, 0.75, 2.0, 0.0, 0.0, 0.0, -1.0, f32::INFINITY],
+        [5.0, 5.0, 2.0, 0.0, 0.0, 0.0, -1.0, f32::INFINITY],
+    ]);
+    let rays = write(&tmp("two.rays"), &rays);
+    let hits = tmp("two.hits");
+    let o = kdray(&[
+        "trace",
+        &tree,
+        &rays,
+        "-o",
+        &hits.display().to_string(),
+        "--threads",
+        "1",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("\"mrays_per_s\""));
+    let h = std::fs::read(&hits).unwrap();
+    assert_eq!(h.len(), 32);
+    let word = |i: usize| u32::from_le_bytes(h[i * 4..i * 4 + 4].try_into().unwrap());
+    assert_eq!((f32::from_bits(word(0)), word(1)), (2.0, 1));
+    assert_eq!(
+        (f32::from_bits(word(4)), word(5)),
+        (f32::INFINITY, u32::MAX)
+    );
+
+    let o = kdray(&[
+        "trace",
+        &tree,
+        &rays,
+        "-o",
+        &hits.display().to_string(),
+        "--any-hit",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let h = std::fs::read(&hits).unwrap();
+    assert_eq!(u32::from_le_bytes(h[4..8].try_into().unwrap()), 0xFFFF_FFFE);
+    assert_eq!(
+        f32::from_le_bytes(h[0..4].try_into().unwrap()),
+        f32::NEG_INFINITY
+    );
+}
+
+#[test]
+fn bad_inputs_get_clear_errors() {
+    let obj = write(&tmp("ok.obj"), QUAD_OBJ);
+    let tree = tmp("ok.kdt").display().to_string();
+    assert!(kdray(&["build", &obj, "-o", &tree]).status.success());
+    let bad_obj = write(&tmp("bad.obj"), b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n");
+    let nan_obj = write(&tmp("nan.obj"), b"v 0 0 0\nv 1 0 0\nv 0 nan 0\nf 1 2 3\n");
+    let odd_rays = write(&tmp("odd.rays"), &[0u8; 33]);
+    let junk_tree = write(&tmp("junk.kdt"), b"not a tree at all, clearly");
+    let out = tmp("never.hits").display().to_string();
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec!["build", "/nonexistent/mesh.obj", "-o", &tree],
+            "/nonexistent/mesh.obj: cannot open",
+        ),
+        (
+            vec!["build", &bad_obj, "-o", &tree],
+            "bad.obj:4: malformed OBJ",
+        ),
+        (vec!["build", &nan_obj, "-o", &tree], "non-finite"),
+        (
+            vec!["build", "mesh.stl", "-o", &tree],
+            "unsupported mesh format",
+        ),
+        (
+            vec!["trace", &tree, &odd_rays, "-o", &out],
+            "odd.rays: size 33 bytes is not a multiple of the 32-byte ray record",
+        ),
+        (
+            vec!["trace", &junk_tree, &odd_rays, "-o", &out],
+            "junk.kdt: invalid tree blob: blob truncated in the header",
+        ),
+        (vec!["info", &junk_tree], "junk.kdt"),
+        (
+            vec!["trace", &tree, &odd_rays, "-o", &out, "--threads", "0"],
+            "--threads must be at least 1",
+        ),
+    ];
+    for (args, want) in cases {
+        let o = kdray(&args);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        assert!(
+            err.contains(want),
+            "{args:?}: {err:?} does not say {want:?}"
+        );
+        assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    }
+    assert!(
+        !Path::new(&out).exists(),
+        "a failed trace left an output file"
+    );
+    // Usage errors come from clap with exit code 2.
+    assert_eq!(kdray(&["trace"]).status.code(), Some(2));
+    assert_eq!(kdray(&["frobnicate"]).status.code(), Some(2));
+}

@@ -1,0 +1,175 @@
+//! Tree == brute force, bit for bit, on random and adversarial geometry:
+//! random soups; axis-aligned and coplanar triangles snapped to a grid so
+//! they lie exactly in split planes; zero-area triangles; rays along split
+//! planes, starting on them, with zero, negative-zero, NaN and infinite
+//! components, and with inverted or negative intervals.
+
+mod common;
+
+use common::assert_matches_brute;
+use kdray::kernel::{Ray, Triangle};
+use proptest::prelude::*;
+
+/// A coordinate: mostly on a coarse grid (so planes coincide), sometimes raw.
+fn coord() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        4 => (-4i32..=4).prop_map(|i| i as f32),
+        2 => (-8i32..=8).prop_map(|i| i as f32 * 0.5),
+        1 => -5.0f32..5.0,
+    ]
+}
+
+fn point() -> impl Strategy<Value = [f32; 3]> {
+    [coord(), coord(), coord()]
+}
+
+/// Triangles of every awkward kind.
+fn triangle() -> impl Strategy<Value = Triangle> {
+    prop_oneof![
+        // General position.
+        3 => [point(), point(), point()].prop_map(|v| Triangle { v }),
+        // Axis-aligned: all three vertices share one coordinate (lies in a plane
+        // a builder may well choose as a split).
+        3 => (0usize..3, coord(), point(), point(), point()).prop_map(|(a, c, mut p, mut q, mut r)| {
+            p[a] = c;
+            q[a] = c;
+            r[a] = c;
+            Triangle { v: [p, q, r] }
+        }),
+        // Degenerate: a repeated vertex or collinear points.
+        1 => (point(), point()).prop_map(|(p, q)| Triangle {
+            v: [p, q, std::array::from_fn(|a| (p[a] + q[a]) * 0.5)]
+        }),
+    ]
+}
+
+/// A direction component: often exactly 0 or -0, sometimes tiny.
+fn dir_component() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        3 => -1.0f32..1.0,
+        1 => Just(0.0f32),
+        1 => Just(-0.0f32),
+        1 => (-2i32..=2).prop_map(|i| i as f32),
+        1 => Just(1e-30f32),
+    ]
+}
+
+fn ray() -> impl Strategy<Value = Ray> {
+    let interval = prop_oneof![
+        6 => Just((0.0f32, f32::INFINITY)),
+        1 => (-10.0f32..10.0, -10.0f32..10.0),
+        1 => Just((f32::NEG_INFINITY, f32::INFINITY)),
+        1 => (0.0f32..3.0).prop_map(|t| (t, t)),
+    ];
+    (
+        point(),
+        [dir_component(), dir_component(), dir_component()],
+        interval,
+    )
+        .prop_map(|(origin, dir, (tmin, tmax))| Ray {
+            origin,
+            tmin,
+            dir,
+            tmax,
+        })
+}
+
+/// Rays that break the rules: NaN anywhere, infinite components.
+fn hostile_ray() -> impl Strategy<Value = Ray> {
+    let special = prop_oneof![
+        Just(f32::NAN),
+        Just(f32::INFINITY),
+        Just(f32::NEG_INFINITY),
+        Just(0.0f32),
+        Just(-0.0f32),
+        Just(f32::MIN_POSITIVE / 4.0),
+        -3.0f32..3.0,
+    ];
+    proptest::collection::vec(special, 8).prop_map(|c| Ray {
+        origin: [c[0], c[1], c[2]],
+        tmin: c[3],
+        dir: [c[4], c[5], c[6]],
+        tmax: c[7],
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 1000, ..ProptestConfig::default() })]
+
+    #[test]
+    fn adversarial_scenes_match_brute_force(
+        tris in proptest::collection::vec(triangle(), 0..60),
+        rays in proptest::collection::vec(ray(), 1..40),
+    ) {
+        assert_matches_brute(&tris, &rays);
+    }
+
+    #[test]
+    fn hostile_rays_never_panic_and_match_brute_force(
+        tris in proptest::collection::vec(triangle(), 1..30),
+        rays in proptest::collection::vec(hostile_ray(), 1..30),
+    ) {
+        assert_matches_brute(&tris, &rays);
+    }
+}
+
+/// Rays aimed at grid points: through shared vertices and edges of the
+/// axis-aligned triangles, and exactly along the split planes between them.
+#[test]
+fn grid_rays_through_planes_edges_and_vertices() {
+    // A 4x4x4 lattice of unit squares in the three axis planes.
+    let mut tris = Vec::new();
+    for i in 0..4 {
+        for j in 0..4 {
+            for k in 0..4 {
+                let (x, y, z) = (i as f32, j as f32, k as f32);
+                tris.push(Triangle {
+                    v: [[x, y, z], [x + 1.0, y, z], [x + 1.0, y + 1.0, z]],
+                });
+                tris.push(Triangle {
+                    v: [[x, y, z], [x + 1.0, y + 1.0, z], [x, y + 1.0, z]],
+                });
+                tris.push(Triangle {
+                    v: [[x, y, z], [x, y + 1.0, z], [x, y + 1.0, z + 1.0]],
+                });
+                tris.push(Triangle {
+                    v: [[x, y, z], [x, y, z + 1.0], [x + 1.0, y, z + 1.0]],
+                });
+            }
+        }
+    }
+    let mut rays = Vec::new();
+    for i in 0..=8 {
+        for j in 0..=8 {
+            let (a, b) = (i as f32 * 0.5, j as f32 * 0.5);
+            for dir in [
+                [0.0, 0.0, 1.0],
+                [0.0, 0.0, -1.0],
+                [1.0, 0.0, 0.0],
+                [0.0, -0.0, 1.0],
+                [1.0, 1.0, 1.0],
+                [-1.0, 0.5, 0.25],
+            ] {
+                rays.push(Ray {
+                    origin: [a, b, -1.0],
+                    tmin: 0.0,
+                    dir,
+                    tmax: f32::INFINITY,
+                });
+                rays.push(Ray {
+                    origin: [a, b, 2.0],
+                    tmin: 0.0,
+                    dir,
+                    tmax: f32::INFINITY,
+                });
+                rays.push(Ray {
+                    origin: [-1.0, a, b],
+                    tmin: 0.0,
+                    dir,
+                    tmax: 7.0,
+                });
+            }
+        }
+    }
+    assert_matches_brute(&tris, &rays);
+}

@@ -34,6 +34,16 @@ impl CostModel {
         empty_factor: 0.8,
     };
 
+    /// The model a build with `p` uses.
+    #[must_use]
+    pub fn from_params(p: &super::BuildParams) -> CostModel {
+        CostModel {
+            traversal: f64::from(p.traversal_cost),
+            intersection: f64::from(p.intersection_cost),
+            empty_factor: 1.0 - f64::from(p.empty_bonus),
+        }
+    }
+
     /// The cost of a leaf of `n` triangles.
     #[inline]
     #[must_use]

@@ -88,16 +88,6 @@ impl BuildParams {
         let auto = || (8.0 + 1.3 * (n.max(1) as f64).log2()).round() as u32;
         self.max_depth.unwrap_or_else(auto).min(MAX_DEPTH)
     }
-
-    /// The builders' cost model.
-    #[must_use]
-    pub fn cost_model(&self) -> CostModel {
-        CostModel {
-            traversal: f64::from(self.traversal_cost),
-            intersection: f64::from(self.intersection_cost),
-            empty_factor: 1.0 - f64::from(self.empty_bonus),
-        }
-    }
 }
 
 /// Which builder.
@@ -253,7 +243,7 @@ fn build_in_pool(
             .reduce(|| Aabb::EMPTY, |a, b| a.union(&b))
     };
     let extent = (0..3).fold(0.0f32, |m, a| m.max(bounds.max[a] - bounds.min[a]));
-    let cost = params.cost_model();
+    let cost = CostModel::from_params(params);
     let limits = subdivide::Limits {
         cost,
         depth: params.depth_limit(triangles.len()),

@@ -1,9 +1,11 @@
 //! Argument parsing and dispatch: one file per subcommand.
 
+mod bench;
 mod build;
 mod demo;
 mod info;
 mod json;
+mod progress;
 mod report;
 mod trace;
 
@@ -28,6 +30,8 @@ enum Command {
     Trace(trace::Args),
     /// Build and trace the built-in teapot-in-a-stadium scene (the default).
     Demo(demo::Args),
+    /// Compare the builders: build time, tree quality and trace speed.
+    Bench(bench::Args),
 }
 
 /// What a subcommand returns: an error message for the user, already
@@ -41,6 +45,7 @@ pub(crate) fn main() -> ExitCode {
         Some(Command::Info(a)) => info::run(&a),
         Some(Command::Trace(a)) => trace::run(&a),
         Some(Command::Demo(a)) => demo::run(&a),
+        Some(Command::Bench(a)) => bench::run(&a),
         None => demo::run(&demo::Args::default()),
     };
     match result {

@@ -14,10 +14,15 @@ use std::path::PathBuf;
 fn scenes() -> Vec<(String, Vec<Triangle>, Aabb)> {
     let s = scene::teapot_in_stadium();
     let mut out = vec![("teapot-stadium".to_string(), s.triangles, s.focus)];
-    let bunny = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/meshes/stanford-bunny.obj"));
+    let bunny = PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/meshes/stanford-bunny.obj"
+    ));
     match mesh::load(&bunny) {
         Ok(t) => {
-            let b = t.iter().fold(Aabb::EMPTY, |b, x| b.union(&Aabb::of_triangle(x)));
+            let b = t
+                .iter()
+                .fold(Aabb::EMPTY, |b, x| b.union(&Aabb::of_triangle(x)));
             out.push(("bunny".to_string(), t, b));
         }
         Err(e) => eprintln!("bunny skipped: {e}"),
@@ -30,7 +35,9 @@ fn trace(c: &mut Criterion) {
         let built = build(&tris, BuilderKind::default(), &BuildParams::default()).unwrap();
         let blob: Blob = write_triangle_tree(&built, &tris);
         let tree = blob.tree().unwrap();
-        let bounds = tris.iter().fold(Aabb::EMPTY, |b, x| b.union(&Aabb::of_triangle(x)));
+        let bounds = tris
+            .iter()
+            .fold(Aabb::EMPTY, |b, x| b.union(&Aabb::of_triangle(x)));
         let sets: [(&str, Vec<Ray>); 2] = [
             ("camera", Camera::framing(&focus).rays(256, 256)),
             ("random", random_rays(&bounds, 65_536, 1)),
@@ -40,12 +47,20 @@ fn trace(c: &mut Criterion) {
         for (kind, rays) in &sets {
             g.throughput(Throughput::Elements(rays.len() as u64));
             g.bench_with_input(BenchmarkId::new("tree", kind), rays, |b, rays| {
-                b.iter(|| rays.iter().map(|r| tree.closest_hit(black_box(r)).t).sum::<f32>())
+                b.iter(|| {
+                    rays.iter()
+                        .map(|r| tree.closest_hit(black_box(r)).t)
+                        .sum::<f32>()
+                })
             });
             let few = &rays[..64];
             g.throughput(Throughput::Elements(few.len() as u64));
             g.bench_with_input(BenchmarkId::new("brute", kind), few, |b, rays| {
-                b.iter(|| rays.iter().map(|r| closest_hit_brute(&tris, black_box(r)).t).sum::<f32>())
+                b.iter(|| {
+                    rays.iter()
+                        .map(|r| closest_hit_brute(&tris, black_box(r)).t)
+                        .sum::<f32>()
+                })
             });
         }
         g.finish();

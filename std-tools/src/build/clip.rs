@@ -24,6 +24,7 @@ const MARGIN: f64 = 1.0 / 1_099_511_627_776.0;
 const MAX_VERTICES: usize = 9;
 
 /// A convex polygon on a fixed buffer.
+#[derive(Clone, Copy)]
 struct Polygon {
     v: [[f64; 3]; MAX_VERTICES],
     len: usize,
@@ -32,7 +33,7 @@ struct Polygon {
 impl Polygon {
     /// Keeps the part on the inner side of the plane `x[axis] = plane`:
     /// `x[axis] >= plane` when `keep_above`, else `x[axis] <= plane`.
-    fn clip(&self, axis: usize, plane: f64, keep_above: bool) -> Polygon {
+    fn clip(self, axis: usize, plane: f64, keep_above: bool) -> Polygon {
         let inside = |p: &[f64; 3]| {
             if keep_above {
                 p[axis] >= plane
@@ -40,6 +41,10 @@ impl Polygon {
                 p[axis] <= plane
             }
         };
+        if self.v[..self.len].iter().all(inside) {
+            // Most planes cut nothing: skip the copy.
+            return self;
+        }
         let mut out = Polygon {
             v: [[0.0; 3]; MAX_VERTICES],
             len: 0,
@@ -88,10 +93,39 @@ fn round_up(x: f64) -> f32 {
     }
 }
 
+/// The boxes of the parts of `tri` in the two cells made by splitting
+/// `cell` at `pos` on `axis` (below, above): each holds every point of the
+/// triangle in its closed cell and lies within it; `None` for a cell the
+/// triangle misses. The triangle is clipped to `cell` once, then cut by
+/// the plane.
+#[must_use]
+pub(super) fn split_boxes(
+    tri: &Triangle,
+    cell: &Aabb,
+    axis: usize,
+    pos: f32,
+) -> (Option<Aabb>, Option<Aabb>) {
+    let eps = margin(tri, cell);
+    let poly = clip_to_cell(tri, cell, eps);
+    let (below, above) = cell.split(axis, pos);
+    let plane = f64::from(pos);
+    (
+        bounds(&poly.clip(axis, plane + eps, false), &below, eps),
+        bounds(&poly.clip(axis, plane - eps, true), &above, eps),
+    )
+}
+
 /// A box holding every point of `tri` that lies in the closed `cell`,
 /// within `cell`; `None` when the triangle misses the cell.
 #[must_use]
+#[cfg(test)]
 pub(super) fn clipped_box(tri: &Triangle, cell: &Aabb) -> Option<Aabb> {
+    let eps = margin(tri, cell);
+    bounds(&clip_to_cell(tri, cell, eps), cell, eps)
+}
+
+/// The clip margin for `tri` in `cell`.
+fn margin(tri: &Triangle, cell: &Aabb) -> f64 {
     let scale = tri
         .v
         .iter()
@@ -99,7 +133,11 @@ pub(super) fn clipped_box(tri: &Triangle, cell: &Aabb) -> Option<Aabb> {
         .chain(&cell.min)
         .chain(&cell.max)
         .fold(0.0f64, |m, &c| m.max(f64::from(c).abs()));
-    let eps = scale * MARGIN;
+    scale * MARGIN
+}
+
+/// `tri` clipped to `cell` grown by `eps`.
+fn clip_to_cell(tri: &Triangle, cell: &Aabb, eps: f64) -> Polygon {
     let mut poly = Polygon {
         v: [[0.0; 3]; MAX_VERTICES],
         len: 3,
@@ -111,14 +149,19 @@ pub(super) fn clipped_box(tri: &Triangle, cell: &Aabb) -> Option<Aabb> {
         poly = poly.clip(axis, f64::from(cell.min[axis]) - eps, true);
         poly = poly.clip(axis, f64::from(cell.max[axis]) + eps, false);
     }
+    poly
+}
+
+/// The box of `poly` grown by `eps`, rounded outward, within `cell`.
+fn bounds(poly: &Polygon, cell: &Aabb, eps: f64) -> Option<Aabb> {
     if poly.len == 0 {
         return None;
     }
     let mut b = Aabb::EMPTY;
     for p in &poly.v[..poly.len] {
-        for a in 0..3 {
-            b.min[a] = b.min[a].min(round_down(p[a] - eps));
-            b.max[a] = b.max[a].max(round_up(p[a] + eps));
+        for (a, &x) in p.iter().enumerate() {
+            b.min[a] = b.min[a].min(round_down(x - eps));
+            b.max[a] = b.max[a].max(round_up(x + eps));
         }
     }
     let b = b.intersect(cell);
@@ -144,6 +187,18 @@ mod tests {
         assert_eq!(b.min[0], 2.0f32.next_down().max(2.0));
         // Only y <= 2 of the triangle lies at x >= 2.
         assert!(b.max[1] > 2.0 && b.max[1] < 2.0001, "{b:?}");
+    }
+
+    #[test]
+    fn split_boxes_hold_what_clipped_boxes_hold() {
+        let t = tri([[0.0, 0.0, 0.0], [4.0, 1.0, 0.5], [0.5, 4.0, 1.0]]);
+        let c = cell([0.0, 0.0, 0.0], [4.0, 4.0, 1.0]);
+        let (b, a) = split_boxes(&t, &c, 0, 2.0);
+        let (cb, ca) = c.split(0, 2.0);
+        for (got, want) in [(b, clipped_box(&t, &cb)), (a, clipped_box(&t, &ca))] {
+            let (g, w) = (got.unwrap(), want.unwrap());
+            assert!((0..3).all(|k| g.min[k] <= w.min[k] + 1e-6 && g.max[k] >= w.max[k] - 1e-6));
+        }
     }
 
     #[test]

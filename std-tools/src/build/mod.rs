@@ -50,7 +50,7 @@ pub struct BuildParams {
     pub max_depth: Option<u32>,
     /// How many splits in a row may cost more than a leaf, in the hope that
     /// the splits below them pay; subtrees that end up costing more than a
-    /// leaf are collapsed. Default 2.
+    /// leaf are collapsed. Default 1: each level of look-ahead multiplies the work near the leaves.
     pub lookahead: u32,
     /// Cells whose largest extent is below this fraction of the scene's are
     /// leaves. Default 2^-20: far below any useful cell, well above the
@@ -72,7 +72,7 @@ impl Default for BuildParams {
             intersection_cost: 1.5,
             empty_bonus: 0.2,
             max_depth: None,
-            lookahead: 2,
+            lookahead: 1,
             min_cell_fraction: 1.0 / 1_048_576.0,
             bins: 32,
             baseline_leaf_size: 2,

@@ -25,7 +25,7 @@
 //! one side only, and the traversal's slack finds it from the other.
 
 use super::aabb::Aabb;
-use super::clip::clipped_box;
+use super::clip::split_boxes;
 use super::cost::{AreaRatios, CostModel};
 use super::events::{self, END, PLANAR, START};
 use super::subdivide::{Choice, Splitter, PARALLEL_MIN};
@@ -153,15 +153,14 @@ impl EventSah<'_> {
         }
         let sides = &*sides;
         // Straddling triangles: clip to each child's cell.
-        let (cb, ca) = cell.split(k, p);
         let straddling: Vec<u32> = ev[k]
             .iter()
             .filter(|&&e| events::kind(e) == START && sides[events::tri(e) as usize] == BOTH)
             .map(|&e| events::tri(e))
             .collect();
         let clip = |t: u32| {
-            let tri = &self.triangles[t as usize];
-            (t, clipped_box(tri, &cb), clipped_box(tri, &ca))
+            let (b, a) = split_boxes(&self.triangles[t as usize], cell, k, p);
+            (t, b, a)
         };
         let clipped: Vec<(u32, Option<Aabb>, Option<Aabb>)> = if parallel {
             straddling.par_iter().map(|&t| clip(t)).collect()

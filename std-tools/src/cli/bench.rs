@@ -46,7 +46,7 @@ fn scene(spec: &str) -> Result<(String, Scene), Box<dyn std::error::Error>> {
         return Ok(("knot-in-stadium".into(), teapot_in_stadium()));
     }
     if spec == "needles" {
-        return Ok(("needles".into(), needles(100_000)));
+        return Ok(("needles".into(), needles(20_000)));
     }
     if let Some(path) = spec.strip_prefix("teapot-stadium:") {
         let m = mesh::load(Path::new(path))?;

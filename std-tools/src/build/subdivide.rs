@@ -11,7 +11,8 @@
 //!   children's own splits may pay; a subtree whose measured cost is not
 //!   below the leaf's is then collapsed back into a leaf;
 //! - builders without a cost model (the median and middle baselines) stop
-//!   by count and depth, and when a split leaves every triangle on both sides.
+//!   by count and depth, and when a split leaves one side with every
+//!   triangle or more than half of them straddle the plane.
 //!
 //! Subtrees above [`PARALLEL_MIN`] triangles are built with `rayon::join`.
 //! Every decision depends only on the cell and its triangles, never on
@@ -110,10 +111,19 @@ impl<S: Splitter> Walk<'_, S> {
             .allocated(self.s.bytes(&below) + self.s.bytes(&above));
         self.monitor.freed(set_bytes);
         let (nb, na) = (self.s.count(&below), self.s.count(&above));
-        if c.cost.is_none() && nb == n && na == n {
-            // No progress for a baseline: both halves hold everything.
-            self.monitor.freed(self.s.bytes(&above));
-            return (self.leaf(below, units), leaf_cost);
+        if c.cost.is_none() && (nb.max(na) == n || 2 * (nb + na) > 3 * n) {
+            // A baseline made no progress (one half holds everything) or
+            // more than half the triangles straddle the plane: the cells
+            // are already smaller than the triangles, and splitting on
+            // would only multiply references.
+            self.monitor
+                .freed(self.s.bytes(&below) + self.s.bytes(&above));
+            self.monitor.finished(units);
+            let mut prims = self.s.prims(below);
+            prims.extend(self.s.prims(above));
+            prims.sort_unstable();
+            prims.dedup();
+            return (BuildNode::Leaf(prims), leaf_cost);
         }
         let ub = if nb + na == 0 {
             units / 2

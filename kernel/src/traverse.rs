@@ -122,8 +122,11 @@ impl CellRay {
         for a in 0..3 {
             inv[a] = 1.0 / ray.dir[a];
             above_first[a] = u32::from(inv[a] < 0.0);
-            if ray.dir[a] == 0.0 {
-                // Parallel to this slab: inside it for all t, or never.
+            if inv[a].is_infinite() {
+                // Parallel to this slab (d = ±0), or so nearly (|d| subnormal,
+                // 1/d overflows) that it could only leave it beyond any hit:
+                // inside it for all t, or never. (Taking the slab test here
+                // would compute 0 * inf = NaN for an origin on a face.)
                 if org[a] < bounds.min[a] || org[a] > bounds.max[a] {
                     return None;
                 }

@@ -25,6 +25,18 @@ pub(crate) struct Args {
     /// Build threads (default: all cores); the tree is the same for any count.
     #[arg(long)]
     threads: Option<usize>,
+    /// Cost of a traversal step in the SAH (default: BuildParams' 1.0).
+    #[arg(long)]
+    traversal_cost: Option<f32>,
+    /// Cost of a triangle test in the SAH (default: BuildParams' 1.5).
+    #[arg(long)]
+    intersection_cost: Option<f32>,
+    /// Fraction of cost forgiven for an empty side (default: BuildParams' 0.2).
+    #[arg(long)]
+    empty_bonus: Option<f32>,
+    /// Deepest leaf (default 8 + 1.3 log2 n, at most 64).
+    #[arg(long)]
+    max_depth: Option<u32>,
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     json: bool,
@@ -43,10 +55,30 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     if a.threads == Some(0) {
         return Err("--threads must be at least 1".into());
     }
+    let d = BuildParams::default();
     let params = BuildParams {
         threads: a.threads,
-        ..BuildParams::default()
+        traversal_cost: a.traversal_cost.unwrap_or(d.traversal_cost),
+        intersection_cost: a.intersection_cost.unwrap_or(d.intersection_cost),
+        empty_bonus: a.empty_bonus.unwrap_or(d.empty_bonus),
+        max_depth: a.max_depth.or(d.max_depth),
+        ..d
     };
+    for (name, v) in [
+        ("--traversal-cost", params.traversal_cost),
+        ("--intersection-cost", params.intersection_cost),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(format!("{name} must be a positive number, not {v}").into());
+        }
+    }
+    if !(0.0..1.0).contains(&params.empty_bonus) {
+        return Err(format!(
+            "--empty-bonus must be in [0, 1), not {}",
+            params.empty_bonus
+        )
+        .into());
+    }
     let monitor = BuildMonitor::new();
     let t = Instant::now();
     let built = with_bar(&monitor, || build_monitored(&tris, kind, &params, &monitor))

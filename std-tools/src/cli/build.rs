@@ -28,7 +28,7 @@ pub(crate) struct Args {
     /// Cost of a traversal step in the SAH (default: BuildParams' 1.0).
     #[arg(long)]
     traversal_cost: Option<f32>,
-    /// Cost of a triangle test in the SAH (default: BuildParams' 1.5).
+    /// Cost of a triangle test in the SAH (default: BuildParams' 0.5).
     #[arg(long)]
     intersection_cost: Option<f32>,
     /// Fraction of cost forgiven for an empty side (default: BuildParams' 0.2).

@@ -64,8 +64,8 @@ pub struct BuildParams {
     pub bins: usize,
     /// Leaf size of the median and middle baselines. Default 2.
     pub baseline_leaf_size: usize,
-    /// Worker threads; `None` uses all cores. The tree is the same for any
-    /// count.
+    /// Worker threads; `None` builds on the caller's rayon pool (all cores
+    /// by default). The tree is the same for any count.
     pub threads: Option<usize>,
 }
 
@@ -221,8 +221,14 @@ pub fn build_monitored(
             count: triangles.len(),
         });
     }
+    // No thread count: build on the caller's rayon pool (the global one,
+    // or whichever the caller installed), so repeated builds start no
+    // threads. A count: a pool of that size for this build.
+    let Some(threads) = params.threads else {
+        return Ok(build_in_pool(triangles, kind, params, monitor));
+    };
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(params.threads.unwrap_or(0))
+        .num_threads(threads)
         .build()
         .map_err(|e| BuildError::Threads {
             message: e.to_string(),

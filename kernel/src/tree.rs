@@ -81,12 +81,7 @@ impl<'a> TriangleTree<'a> {
             max: header.bounds_max,
         };
         let tree = Self::from_parts(nodes, prims, triangles, bounds)?;
-        if tree.max_depth != header.max_depth {
-            return Err(BlobError::BadHeaderField {
-                what: "max_depth",
-                found: header.max_depth,
-            });
-        }
+        header.expect_depth(tree.max_depth)?;
         Ok(tree)
     }
 
@@ -103,13 +98,7 @@ impl<'a> TriangleTree<'a> {
     /// indices in range, depth within [`MAX_DEPTH`]) to find its way.
     pub unsafe fn from_bytes_unchecked(bytes: &'a [u8]) -> Result<Self, BlobError> {
         let (header, nodes, prims, triangles, _) = Self::sections(bytes)?;
-        if header.max_depth > MAX_DEPTH {
-            return Err(BlobError::TooDeep {
-                node: 0,
-                depth: header.max_depth,
-                max: MAX_DEPTH,
-            });
-        }
+        header.depth_fits_stack()?;
         Ok(TriangleTree {
             nodes,
             prims,

@@ -73,6 +73,34 @@ pub struct Header {
 
 const _: () = assert!(core::mem::size_of::<Header>() == HEADER_LEN);
 
+impl Header {
+    /// Checks the header's max depth against the depth the validator
+    /// measured (checked loading).
+    pub(crate) fn expect_depth(&self, measured: u32) -> Result<(), BlobError> {
+        if self.max_depth == measured {
+            Ok(())
+        } else {
+            Err(BlobError::BadHeaderField {
+                what: "max_depth",
+                found: self.max_depth,
+            })
+        }
+    }
+
+    /// Checks that the header's max depth fits the traversal stack
+    /// (unchecked loading, O(1)).
+    pub(crate) fn depth_fits_stack(&self) -> Result<(), BlobError> {
+        if self.max_depth > crate::MAX_DEPTH {
+            return Err(BlobError::TooDeep {
+                node: 0,
+                depth: self.max_depth,
+                max: crate::MAX_DEPTH,
+            });
+        }
+        Ok(())
+    }
+}
+
 const FNV_OFFSET: u32 = 0x811C_9DC5;
 const FNV_PRIME: u32 = 0x0100_0193;
 

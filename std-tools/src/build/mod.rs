@@ -2,7 +2,7 @@
 //! kernel's depth-first layout.
 //!
 //! Every builder produces a [`BuildNode`] tree through the shared
-//! recursion ([`subdivide`]); [`layout::flatten`] turns it into kernel
+//! recursion (`subdivide`); [`layout::flatten`] turns it into kernel
 //! [`Node`]s (one definition of the layout). Every point of a triangle lies
 //! in the closed cell of some leaf that references it, so the traversal
 //! finds every hit.

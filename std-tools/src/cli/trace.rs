@@ -28,6 +28,9 @@ pub(crate) struct Args {
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     json: bool,
+    /// Timed passes; the best is reported (the Embree anchor takes the best of 5).
+    #[arg(long, default_value_t = 1)]
+    repeat: u32,
     /// Also count nodes visited and triangles tested per ray (a second,
     /// untimed pass).
     #[arg(long)]
@@ -47,9 +50,16 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     } else {
         Query::Closest
     };
-    let t = Instant::now();
-    pool.install(|| trace_into(&tree, &rays, &mut hits, query));
-    let seconds = t.elapsed().as_secs_f64();
+    if a.repeat == 0 {
+        return Err("--repeat must be at least 1".into());
+    }
+    // The best of `repeat` passes, as the anchors report theirs.
+    let mut seconds = f64::INFINITY;
+    for _ in 0..a.repeat {
+        let t = Instant::now();
+        pool.install(|| trace_into(&tree, &rays, &mut hits, query));
+        seconds = seconds.min(t.elapsed().as_secs_f64());
+    }
     io::write_records(&a.output, &hits)?;
     let per_ray = a.counts.then(|| {
         let mut total = (0u64, 0u64);
@@ -76,7 +86,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             .num("mrays_per_s", mrays)
             .str(
                 "timing",
-                "seconds excludes reading the tree and rays and writing the hits",
+                "seconds: the best pass, excluding reading the tree and rays and writing the hits",
             );
         say!("{}", j.finish());
     } else {

@@ -68,22 +68,19 @@ fn parse_packet(s: &str) -> Result<usize, String> {
         .ok_or_else(|| format!("{s:?}: packet width must be 1, 4 or 8"))
 }
 
-/// A tree blob from `path`: read and validated when it is a `.kdt`, else
-/// the mesh loaded and built with the default builder.
+/// A tree blob from `path`: read when it is a `.kdt`, else the mesh
+/// loaded and built with the default builder.
 fn tree_blob(path: &Path) -> Result<Blob, Box<dyn std::error::Error>> {
     let is_blob = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("kdt"));
-    let blob = if is_blob {
+    Ok(if is_blob {
         Blob::read(path).map_err(|e| format!("{}: {e}", path.display()))?
     } else {
         let tris = mesh::load(path)?;
         let built = build(&tris, BuilderKind::default(), &BuildParams::default())?;
         write_triangle_tree(&built, &tris)
-    };
-    blob.tree()
-        .map_err(|e| format!("{}: invalid tree blob: {e}", path.display()))?;
-    Ok(blob)
+    })
 }
 
 /// A progress bar on stderr over `len` steps (drawn only on a terminal).
@@ -101,12 +98,10 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     }
     let pool = thread_pool(a.threads)?;
     let blob = tree_blob(&a.input)?;
-    let tree = blob.tree()?;
-    let b = tree.bounds();
-    let scene = Aabb {
-        min: b.min,
-        max: b.max,
-    };
+    let tree = blob
+        .tree()
+        .map_err(|e| format!("{}: invalid tree blob: {e}", a.input.display()))?;
+    let scene = Aabb::from_bounds(&tree.bounds());
     let mut camera = Camera::framing(&scene);
     camera.eye = a.eye.unwrap_or(camera.eye);
     camera.target = a.target.unwrap_or(camera.target);

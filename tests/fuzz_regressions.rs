@@ -40,3 +40,14 @@ fn tree_vs_brute_sah_misses_t_neg_zero_hit_on_huge_triangle() {
         "../fuzz/regressions/tree_vs_brute/sah_misses_t_neg_zero_hit_on_huge_triangle"
     ));
 }
+
+/// Found by `tree_vs_brute` in a CI run: one triangle, a ray starting on
+/// the scene box's z = 0 face with direction z = -1e-45 (subnormal). 1/d
+/// overflowed to -inf and the slab test computed 0 * -inf = NaN, clipping
+/// the ray away; brute force hits. Such slabs are now treated as parallel.
+#[test]
+fn tree_vs_brute_subnormal_direction_origin_on_box_face() {
+    checks::tree_vs_brute(include_bytes!(
+        "../fuzz/regressions/tree_vs_brute/subnormal_direction_origin_on_box_face"
+    ));
+}

@@ -122,8 +122,11 @@ impl CellRay {
         for a in 0..3 {
             inv[a] = 1.0 / ray.dir[a];
             above_first[a] = u32::from(inv[a] < 0.0);
-            if ray.dir[a] == 0.0 {
-                // Parallel to this slab: inside it for all t, or never.
+            if inv[a].is_infinite() {
+                // Parallel to this slab (d = ±0), or so nearly (|d| subnormal,
+                // 1/d overflows) that it could only leave it beyond any hit:
+                // inside it for all t, or never. (Taking the slab test here
+                // would compute 0 * inf = NaN for an origin on a face.)
                 if org[a] < bounds.min[a] || org[a] > bounds.max[a] {
                     return None;
                 }
@@ -402,21 +405,31 @@ impl<'a> TriangleTree<'a> {
                 // interval.
                 #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must visit: see above
                 let (visit_near, visit_far) = (!(t_split < lo), !(t_split > hi));
-                // Push the far child unconditionally, keep it only when both
-                // children are visited: no branch to mispredict.
+                // Push the far child unconditionally; keep it only when both
+                // children are visited.
                 let Some(slot) = stack.get_mut(sp) else {
                     return; // deeper than MAX_DEPTH: only an unchecked, invalid blob
                 };
-                let far_lo = lo.max(t_split - s2);
+                // max/min as plain selects: `lo` and `hi` are never NaN, and
+                // a NaN bound keeps them (f32::max would spend three
+                // instructions on NaN rules we do not need here).
+                let far_start = t_split - s2;
+                let far_lo = if far_start > lo { far_start } else { lo };
+                let near_end = t_split + s2;
+                let near_hi = if near_end < hi { near_end } else { hi };
                 *slot = Pending {
                     node: second,
                     lo: far_lo,
                     hi,
                 };
+                // A branch, not selects: coherent rays take the same side at
+                // the same node, so it predicts well. Tried conditional moves
+                // (mask selects of node, lo, hi): 25-30% slower on bunny
+                // camera rays, the same on random rays.
                 if visit_near {
                     sp += usize::from(visit_far);
                     node_idx = first;
-                    hi = hi.min(t_split + s2);
+                    hi = near_hi;
                 } else {
                     node_idx = second;
                     lo = far_lo;

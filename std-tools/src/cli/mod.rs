@@ -9,12 +9,14 @@ macro_rules! say {
     }};
 }
 
+mod bench;
 mod build;
 mod build_points;
 mod demo;
 mod info;
 mod json;
 mod knn;
+mod progress;
 mod render;
 mod report;
 mod trace;
@@ -46,6 +48,8 @@ enum Command {
     Render(render::Args),
     /// Build and trace the built-in teapot-in-a-stadium scene (the default).
     Demo(demo::Args),
+    /// Compare the builders: build time, tree quality and trace speed.
+    Bench(bench::Args),
 }
 
 /// What a subcommand returns: an error message for the user, already
@@ -62,6 +66,7 @@ pub(crate) fn main() -> ExitCode {
         Some(Command::Knn(a)) => knn::run(&a),
         Some(Command::Render(a)) => render::run(&a),
         Some(Command::Demo(a)) => demo::run(&a),
+        Some(Command::Bench(a)) => bench::run(&a),
         None => demo::run(&demo::Args::default()),
     };
     match result {

@@ -1,9 +1,9 @@
 //! `kdray render MESH_OR_TREE -o OUT.png`: a shaded picture or a
 //! traversal-cost heatmap of a mesh or a tree blob.
 
+use super::progress::counted_bar;
 use super::{thread_pool, CmdResult};
 use glam::Vec3;
-use indicatif::{ProgressBar, ProgressStyle};
 use kdray_kernel::PacketWidth;
 use kdray_tools::blob::{write_triangle_tree, Blob};
 use kdray_tools::build::{build, Aabb, BuildParams, BuilderKind};
@@ -83,15 +83,6 @@ fn tree_blob(path: &Path) -> Result<Blob, Box<dyn std::error::Error>> {
     })
 }
 
-/// A progress bar on stderr over `len` steps (drawn only on a terminal).
-fn progress_bar(len: u64) -> ProgressBar {
-    let bar = ProgressBar::new(len);
-    if let Ok(style) = ProgressStyle::with_template("{bar:40} {percent:>3}% {elapsed}") {
-        bar.set_style(style);
-    }
-    bar
-}
-
 pub(crate) fn run(a: &Args) -> CmdResult {
     if a.width == 0 || a.height == 0 {
         return Err("--width and --height must be at least 1".into());
@@ -113,7 +104,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let width = PacketWidth::from_lanes(a.packet).unwrap_or_default();
     let t = Instant::now();
     let image = if a.heatmap {
-        let bar = progress_bar(u64::from(a.height));
+        let bar = counted_bar(u64::from(a.height));
         let h = pool.install(|| render_heatmap(&tree, &params, &|| bar.inc(1)));
         bar.finish_and_clear();
         say!(
@@ -124,7 +115,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         );
         h.image
     } else {
-        let bar = progress_bar(bands(a.height, width));
+        let bar = counted_bar(bands(a.height, width));
         let tracer = TreeTracer { tree: &tree, width };
         let img = pool.install(|| render(&tracer, &params, &|| bar.inc(1)));
         bar.finish_and_clear();

@@ -221,6 +221,26 @@ impl<'a> TriangleTree<'a> {
     ///
     /// # Panics
     /// Never. No allocation; the stack is [`MAX_DEPTH`] entries.
+    ///
+    /// # Example
+    /// ```
+    /// use glam::Vec3;
+    /// use kdray_kernel::{closest_hit_brute, Hit, Ray, TriangleTree};
+    /// static CUBE: &kdray_kernel::Aligned<[u8]> =
+    ///     kdray_kernel::include_aligned!("../../tests/golden/cube-v1.kdt");
+    /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
+    ///
+    /// // From below the cube, straight up: the floor at t = 1.
+    /// let ray = Ray::new(Vec3::new(0.3, 0.6, -1.0), Vec3::Z);
+    /// let hit = tree.closest_hit(&ray);
+    /// assert_eq!((hit.t, hit.prim), (1.0, 1));
+    /// // Exactly what testing every triangle finds.
+    /// assert_eq!(hit.bits(), closest_hit_brute(tree.triangles(), &ray).bits());
+    /// // Pointing away, or invalid: a miss.
+    /// assert_eq!(tree.closest_hit(&Ray::new(Vec3::new(0.3, 0.6, -1.0), -Vec3::Z)), Hit::MISS);
+    /// assert!(!tree.closest_hit(&Ray::new(Vec3::ZERO, Vec3::ZERO)).is_hit());
+    /// # Ok::<(), kdray_kernel::BlobError>(())
+    /// ```
     #[inline]
     #[must_use]
     pub fn closest_hit(&self, ray: &Ray) -> Hit {
@@ -280,6 +300,23 @@ impl<'a> TriangleTree<'a> {
     ///
     /// # Panics
     /// Never. No allocation; the stack is [`MAX_DEPTH`] entries.
+    ///
+    /// # Example
+    /// ```
+    /// use glam::Vec3;
+    /// use kdray_kernel::{Ray, TriangleTree};
+    /// static CUBE: &kdray_kernel::Aligned<[u8]> =
+    ///     kdray_kernel::include_aligned!("../../tests/golden/cube-v1.kdt");
+    /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
+    ///
+    /// // A shadow ray from a point inside the cube to a light outside it:
+    /// // the walls are in the way. Stopped short of the wall, it is clear.
+    /// let p = Vec3::new(0.9, 0.1, 0.1);
+    /// let to_light = Vec3::new(2.0, 0.1, 0.1) - p;
+    /// assert!(tree.any_hit(&Ray::with_range(p, to_light, 0.0, 1.0)));
+    /// assert!(!tree.any_hit(&Ray::with_range(p, to_light, 0.0, 0.05)));
+    /// # Ok::<(), kdray_kernel::BlobError>(())
+    /// ```
     #[inline]
     #[must_use]
     pub fn any_hit(&self, ray: &Ray) -> bool {

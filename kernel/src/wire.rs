@@ -235,9 +235,13 @@ pub(crate) fn verify_checksum(header: &Header, blob: &[u8]) -> Result<(), BlobEr
 /// in it (or use [`include_aligned!`](crate::include_aligned)) so the
 /// blob's sections can be read without a copy:
 ///
-/// ```ignore
-/// static SCENE: &kdray_kernel::Aligned<[u8]> = kdray_kernel::include_aligned!("scene.kdt");
+/// ```
+/// static SCENE: &kdray_kernel::Aligned<[u8]> =
+///     kdray_kernel::include_aligned!("../../tests/golden/cube-v1.kdt");
 /// let tree = kdray_kernel::TriangleTree::from_bytes(&SCENE.bytes)?;
+/// // Read in place: the tree's triangles are the blob's bytes.
+/// assert_eq!(tree.triangles().as_ptr().cast::<u8>(), SCENE.bytes[SCENE.bytes.len() - 14 * 36..].as_ptr());
+/// # Ok::<(), kdray_kernel::BlobError>(())
 /// ```
 #[repr(C)]
 pub struct Aligned<B: ?Sized> {

@@ -139,6 +139,24 @@ impl<'a> PointTree<'a> {
     ///
     /// # Panics
     /// Never, for any input.
+    ///
+    /// # Example
+    /// ```
+    /// use kdray_kernel::PointTree;
+    /// use kdray_tools::points::{build_points, PointParams};
+    /// use kdray_tools::blob::write_point_tree;
+    ///
+    /// // A 10 x 10 x 10 grid of points; point i is at (i % 10, i / 10 % 10, i / 100).
+    /// let points: Vec<[f32; 3]> = (0..1000)
+    ///     .map(|i| [(i % 10) as f32, (i / 10 % 10) as f32, (i / 100) as f32])
+    ///     .collect();
+    /// let blob = write_point_tree(&build_points(&points, &PointParams::default())?);
+    /// let tree = PointTree::from_bytes(blob.as_bytes())?;
+    /// assert_eq!(tree.points().len(), 1000);
+    /// // A triangle blob is not a point blob.
+    /// assert!(PointTree::from_bytes(&blob.as_bytes()[..64]).is_err());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn from_bytes(bytes: &'a [u8]) -> Result<Self, BlobError> {
         let (header, tree, whole) = Self::sections(bytes)?;
         wire::verify_checksum(header, whole)?;

@@ -1,5 +1,6 @@
-//! A progress bar for long builds on stderr, drawn only when stderr is a
-//! terminal (quiet in pipes, logs and tests).
+//! Progress bars on stderr, drawn only when stderr is a terminal (quiet
+//! in pipes, logs and tests): one polling a build's monitor, one counting
+//! steps of a render.
 
 use kdray_tools::build::BuildMonitor;
 use std::io::{IsTerminal, Write};
@@ -40,4 +41,15 @@ pub(crate) fn with_bar<T: Send>(monitor: &BuildMonitor, work: impl FnOnce() -> T
         done.store(true, std::sync::atomic::Ordering::Relaxed);
         out
     })
+}
+
+/// An `indicatif` bar over `len` steps (`inc` it from any thread); hidden
+/// when stderr is not a terminal.
+pub(crate) fn counted_bar(len: u64) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(len);
+    if let Ok(style) = indicatif::ProgressStyle::with_template("  rendering {bar:40} {percent:>3}%")
+    {
+        bar.set_style(style);
+    }
+    bar
 }

@@ -61,13 +61,24 @@ fn tree_vs_brute_sah_misses_t_neg_zero_hit_on_huge_triangle() {
     ));
 }
 
+/// Found by `tree_vs_brute` in a CI run: one triangle, a ray starting on
+/// the scene box's z = 0 face with direction z = -1e-45 (subnormal). 1/d
+/// overflowed to -inf and the slab test computed 0 * -inf = NaN, clipping
+/// the ray away; brute force hits. Such slabs are now treated as parallel.
+#[test]
+fn tree_vs_brute_subnormal_direction_origin_on_box_face() {
+    checks::tree_vs_brute(include_bytes!(
+        "../fuzz/regressions/tree_vs_brute/subnormal_direction_origin_on_box_face"
+    ));
+}
+
 /// Found by `tree_vs_brute` (60 s run on the packets2 branch): the ray
 /// starts on an edge of the scene box (y = z = -8, the bounds' minimum)
 /// with a subnormal y direction (-1e-45, so 1/dir = -inf). The slab test
 /// computed 0 * -inf = NaN for the y = -8 plane, kept only the other end
 /// (-inf) and rejected the ray; brute force hits triangle 4, whose edge
-/// the origin lies on, at t = 2.3e-9. Fixed in `CellRay::new` (the origin's
-/// own plane is met at t = 0).
+/// the origin lies on, at t = 2.3e-9. The same fault as the test above
+/// (found the same day on main); fixed there (such slabs are parallel).
 #[test]
 fn tree_vs_brute_sah_misses_hit_at_origin_on_box_edge_subnormal_dir() {
     checks::tree_vs_brute(include_bytes!(

@@ -122,21 +122,18 @@ impl CellRay {
         for a in 0..3 {
             inv[a] = 1.0 / ray.dir[a];
             above_first[a] = u32::from(inv[a] < 0.0);
-            if ray.dir[a] == 0.0 {
-                // Parallel to this slab: inside it for all t, or never.
+            if inv[a].is_infinite() {
+                // Parallel to this slab (d = ±0), or so nearly (|d| subnormal,
+                // 1/d overflows) that it could only leave it beyond any hit:
+                // inside it for all t, or never. (Taking the slab test here
+                // would compute 0 * inf = NaN for an origin on a face.)
                 if org[a] < bounds.min[a] || org[a] > bounds.max[a] {
                     return None;
                 }
                 continue;
             }
-            // An origin on the slab's plane with an infinite 1/dir (a
-            // subnormal direction component) gives 0 * inf = NaN: the ray
-            // meets that plane at t = 0, as any finite 1/dir says. (Taken
-            // as NaN, the min/max below dropped the slab's other end and
-            // rejected a ray the triangle test hits at t ~ 0.)
-            let at_plane = |t: f32| if t.is_nan() { 0.0 } else { t };
-            let ta = at_plane((bounds.min[a] - org[a]) * inv[a]);
-            let tb = at_plane((bounds.max[a] - org[a]) * inv[a]);
+            let ta = (bounds.min[a] - org[a]) * inv[a];
+            let tb = (bounds.max[a] - org[a]) * inv[a];
             enter = enter.max(ta.min(tb));
             exit = exit.min(ta.max(tb));
         }
@@ -183,9 +180,9 @@ impl CellRay {
 pub(crate) trait Span:
     Copy + core::ops::Add<Output = Self> + core::ops::Sub<Output = Self>
 {
-    /// `f32::min`: a NaN `rhs` keeps `self`.
+    /// The smaller of the two; a NaN `rhs` keeps `self` (`self` is never NaN).
     fn min(self, rhs: Self) -> Self;
-    /// `f32::max`: a NaN `rhs` keeps `self`.
+    /// The larger of the two; a NaN `rhs` keeps `self` (`self` is never NaN).
     fn max(self, rhs: Self) -> Self;
 
     /// The near child's interval end: its cell ends at the plane.
@@ -208,14 +205,25 @@ pub(crate) trait Span:
     }
 }
 
+/// Plain selects: the walk's `lo` and `hi` are never NaN and a NaN `rhs`
+/// keeps them, which is all of `f32::min`/`max`'s NaN rule the walk needs
+/// (those spend three instructions on the rest).
 impl Span for f32 {
     #[inline(always)]
     fn min(self, rhs: f32) -> f32 {
-        f32::min(self, rhs)
+        if rhs < self {
+            rhs
+        } else {
+            self
+        }
     }
     #[inline(always)]
     fn max(self, rhs: f32) -> f32 {
-        f32::max(self, rhs)
+        if rhs > self {
+            rhs
+        } else {
+            self
+        }
     }
 }
 
@@ -278,6 +286,26 @@ impl<'a> TriangleTree<'a> {
     ///
     /// # Panics
     /// Never. No allocation; the stack is [`MAX_DEPTH`] entries.
+    ///
+    /// # Example
+    /// ```
+    /// use glam::Vec3;
+    /// use kdray_kernel::{closest_hit_brute, Hit, Ray, TriangleTree};
+    /// static CUBE: &kdray_kernel::Aligned<[u8]> =
+    ///     kdray_kernel::include_aligned!("../../tests/golden/cube-v1.kdt");
+    /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
+    ///
+    /// // From below the cube, straight up: the floor at t = 1.
+    /// let ray = Ray::new(Vec3::new(0.3, 0.6, -1.0), Vec3::Z);
+    /// let hit = tree.closest_hit(&ray);
+    /// assert_eq!((hit.t, hit.prim), (1.0, 1));
+    /// // Exactly what testing every triangle finds.
+    /// assert_eq!(hit.bits(), closest_hit_brute(tree.triangles(), &ray).bits());
+    /// // Pointing away, or invalid: a miss.
+    /// assert_eq!(tree.closest_hit(&Ray::new(Vec3::new(0.3, 0.6, -1.0), -Vec3::Z)), Hit::MISS);
+    /// assert!(!tree.closest_hit(&Ray::new(Vec3::ZERO, Vec3::ZERO)).is_hit());
+    /// # Ok::<(), kdray_kernel::BlobError>(())
+    /// ```
     #[inline]
     #[must_use]
     pub fn closest_hit(&self, ray: &Ray) -> Hit {
@@ -338,6 +366,23 @@ impl<'a> TriangleTree<'a> {
     ///
     /// # Panics
     /// Never. No allocation; the stack is [`MAX_DEPTH`] entries.
+    ///
+    /// # Example
+    /// ```
+    /// use glam::Vec3;
+    /// use kdray_kernel::{Ray, TriangleTree};
+    /// static CUBE: &kdray_kernel::Aligned<[u8]> =
+    ///     kdray_kernel::include_aligned!("../../tests/golden/cube-v1.kdt");
+    /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
+    ///
+    /// // A shadow ray from a point inside the cube to a light outside it:
+    /// // the walls are in the way. Stopped short of the wall, it is clear.
+    /// let p = Vec3::new(0.9, 0.1, 0.1);
+    /// let to_light = Vec3::new(2.0, 0.1, 0.1) - p;
+    /// assert!(tree.any_hit(&Ray::with_range(p, to_light, 0.0, 1.0)));
+    /// assert!(!tree.any_hit(&Ray::with_range(p, to_light, 0.0, 0.05)));
+    /// # Ok::<(), kdray_kernel::BlobError>(())
+    /// ```
     #[inline]
     #[must_use]
     pub fn any_hit(&self, ray: &Ray) -> bool {
@@ -427,8 +472,8 @@ impl<'a> TriangleTree<'a> {
                 // interval.
                 #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must visit: see above
                 let (visit_near, visit_far) = (!(t_split < lo), !(t_split > hi));
-                // Push the far child unconditionally, keep it only when both
-                // children are visited: no branch to mispredict.
+                // Push the far child unconditionally; keep it only when both
+                // children are visited.
                 let Some(slot) = stack.get_mut(sp) else {
                     return; // deeper than MAX_DEPTH: only an unchecked, invalid blob
                 };
@@ -438,6 +483,10 @@ impl<'a> TriangleTree<'a> {
                     lo: far_lo,
                     hi,
                 };
+                // A branch, not selects: coherent rays take the same side at
+                // the same node, so it predicts well. Tried conditional moves
+                // (mask selects of node, lo, hi): 25-30% slower on bunny
+                // camera rays, the same on random rays.
                 if visit_near {
                     sp += usize::from(visit_far);
                     node_idx = first;

@@ -73,6 +73,22 @@ impl<'a> TriangleTree<'a> {
     ///
     /// # Panics
     /// Never, for any input.
+    ///
+    /// # Example
+    /// ```
+    /// use kdray_kernel::TriangleTree;
+    /// static CUBE: &kdray_kernel::Aligned<[u8]> =
+    ///     kdray_kernel::include_aligned!("../../tests/golden/cube-v1.kdt");
+    /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
+    /// assert_eq!(tree.triangles().len(), 14); // six square faces and a quad
+    ///
+    /// // Any damage is refused with the place it was found.
+    /// let mut bad = CUBE.bytes.to_vec();
+    /// bad[100] ^= 1;
+    /// let err = TriangleTree::from_bytes(&bad).unwrap_err();
+    /// assert!(err.to_string().contains("checksum"), "{err}");
+    /// # Ok::<(), kdray_kernel::BlobError>(())
+    /// ```
     pub fn from_bytes(bytes: &'a [u8]) -> Result<Self, BlobError> {
         let (header, nodes, prims, triangles, whole) = Self::sections(bytes)?;
         wire::verify_checksum(header, whole)?;
@@ -81,12 +97,7 @@ impl<'a> TriangleTree<'a> {
             max: header.bounds_max,
         };
         let tree = Self::from_parts(nodes, prims, triangles, bounds)?;
-        if tree.max_depth != header.max_depth {
-            return Err(BlobError::BadHeaderField {
-                what: "max_depth",
-                found: header.max_depth,
-            });
-        }
+        header.expect_depth(tree.max_depth)?;
         Ok(tree)
     }
 
@@ -103,13 +114,7 @@ impl<'a> TriangleTree<'a> {
     /// indices in range, depth within [`MAX_DEPTH`]) to find its way.
     pub unsafe fn from_bytes_unchecked(bytes: &'a [u8]) -> Result<Self, BlobError> {
         let (header, nodes, prims, triangles, _) = Self::sections(bytes)?;
-        if header.max_depth > MAX_DEPTH {
-            return Err(BlobError::TooDeep {
-                node: 0,
-                depth: header.max_depth,
-                max: MAX_DEPTH,
-            });
-        }
+        header.depth_fits_stack()?;
         Ok(TriangleTree {
             nodes,
             prims,

@@ -73,6 +73,34 @@ pub struct Header {
 
 const _: () = assert!(core::mem::size_of::<Header>() == HEADER_LEN);
 
+impl Header {
+    /// Checks the header's max depth against the depth the validator
+    /// measured (checked loading).
+    pub(crate) fn expect_depth(&self, measured: u32) -> Result<(), BlobError> {
+        if self.max_depth == measured {
+            Ok(())
+        } else {
+            Err(BlobError::BadHeaderField {
+                what: "max_depth",
+                found: self.max_depth,
+            })
+        }
+    }
+
+    /// Checks that the header's max depth fits the traversal stack
+    /// (unchecked loading, O(1)).
+    pub(crate) fn depth_fits_stack(&self) -> Result<(), BlobError> {
+        if self.max_depth > crate::MAX_DEPTH {
+            return Err(BlobError::TooDeep {
+                node: 0,
+                depth: self.max_depth,
+                max: crate::MAX_DEPTH,
+            });
+        }
+        Ok(())
+    }
+}
+
 const FNV_OFFSET: u32 = 0x811C_9DC5;
 const FNV_PRIME: u32 = 0x0100_0193;
 
@@ -207,9 +235,13 @@ pub(crate) fn verify_checksum(header: &Header, blob: &[u8]) -> Result<(), BlobEr
 /// in it (or use [`include_aligned!`](crate::include_aligned)) so the
 /// blob's sections can be read without a copy:
 ///
-/// ```ignore
-/// static SCENE: &kdray_kernel::Aligned<[u8]> = kdray_kernel::include_aligned!("scene.kdt");
+/// ```
+/// static SCENE: &kdray_kernel::Aligned<[u8]> =
+///     kdray_kernel::include_aligned!("../../tests/golden/cube-v1.kdt");
 /// let tree = kdray_kernel::TriangleTree::from_bytes(&SCENE.bytes)?;
+/// // Read in place: the tree's triangles are the blob's bytes.
+/// assert_eq!(tree.triangles().as_ptr().cast::<u8>(), SCENE.bytes[SCENE.bytes.len() - 14 * 36..].as_ptr());
+/// # Ok::<(), kdray_kernel::BlobError>(())
 /// ```
 #[repr(C)]
 pub struct Aligned<B: ?Sized> {

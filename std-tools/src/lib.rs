@@ -18,6 +18,7 @@ pub mod camera;
 pub mod io;
 pub mod mesh;
 pub mod points;
+pub mod render;
 pub mod rng;
 pub mod scene;
 pub mod stats;

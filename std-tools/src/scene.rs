@@ -106,3 +106,67 @@ pub fn teapot_in_stadium() -> Scene {
     }
     Scene { triangles, focus }
 }
+
+/// `mesh` scaled to a largest extent of 1, standing at the centre of a
+/// closed box 1000 wide and 200 high (12 triangles after the mesh's): the
+/// teapot-in-a-stadium of `anchors/embree/gen_stadium.py`, focus = the mesh.
+#[must_use]
+pub fn in_stadium(mesh: &[Triangle]) -> Scene {
+    let b = mesh
+        .iter()
+        .fold(Aabb::EMPTY, |b, t| b.union(&Aabb::of_triangle(t)));
+    let extent = (0..3).fold(0.0f32, |m, a| m.max(b.max[a] - b.min[a]));
+    let scale = 1.0 / extent.max(f32::MIN_POSITIVE);
+    let centre = [
+        (b.min[0] + b.max[0]) * 0.5,
+        b.min[1],
+        (b.min[2] + b.max[2]) * 0.5,
+    ];
+    let lift = [0.0, 0.2, 0.0];
+    let mut triangles: Vec<Triangle> = mesh
+        .iter()
+        .map(|t| Triangle {
+            v: t.v
+                .map(|p| std::array::from_fn(|a| (p[a] - centre[a]) * scale + lift[a])),
+        })
+        .collect();
+    let focus = triangles
+        .iter()
+        .fold(Aabb::EMPTY, |b, t| b.union(&Aabb::of_triangle(t)));
+    let (s, h) = (500.0, 200.0);
+    triangles.extend(rect([-s, 0.0, -s], [s, 0.0, s]));
+    triangles.extend(rect([-s, h, -s], [s, h, s]));
+    triangles.extend(rect([-s, 0.0, -s], [-s, h, s]));
+    triangles.extend(rect([s, 0.0, -s], [s, h, s]));
+    triangles.extend(rect([-s, 0.0, -s], [s, h, -s]));
+    triangles.extend(rect([-s, 0.0, s], [s, h, s]));
+    Scene { triangles, focus }
+}
+
+/// `n` long, thin, axis-aligned triangles ("needles", 50 long and 0.05
+/// wide) along all three axes through a 100-unit cube, their ends and
+/// planes on a grid: every box edge is a candidate split plane and most
+/// triangles straddle most planes. Deterministic.
+#[must_use]
+pub fn needles(n: usize) -> Scene {
+    let mut rng = crate::rng::Rng::new(42);
+    let triangles: Vec<Triangle> = (0..n)
+        .map(|i| {
+            let axis = i % 3;
+            let (u, w) = ((axis + 1) % 3, (axis + 2) % 3);
+            let start = (rng.f32() * 50.0).floor();
+            let (pu, pw) = ((rng.f32() * 100.0).floor(), (rng.f32() * 100.0).floor());
+            let mut v = [[0.0f32; 3]; 3];
+            for (k, p) in v.iter_mut().enumerate() {
+                p[axis] = if k == 0 { start } else { start + 50.0 };
+                p[u] = pu + if k == 2 { 0.05 } else { 0.0 };
+                p[w] = pw;
+            }
+            Triangle { v }
+        })
+        .collect();
+    let focus = triangles
+        .iter()
+        .fold(Aabb::EMPTY, |b, t| b.union(&Aabb::of_triangle(t)));
+    Scene { triangles, focus }
+}

@@ -2,6 +2,7 @@
 //! (the lecture: "stringy, depth 50-100, ~2 triangle leaves, big empty cells").
 
 use crate::build::Aabb;
+pub use crate::build::CostModel;
 use kdray_kernel::{NodeKind, TriangleTree};
 
 /// Statistics of a triangle tree.
@@ -23,33 +24,18 @@ pub struct TreeStats {
     pub refs_per_triangle: f64,
     /// Mean triangles per non-empty leaf.
     pub mean_leaf_size: f64,
-    /// SAH cost: sum over interior nodes of P(cell) * C_trav plus sum over
-    /// leaves of P(cell) * N * C_isect, P = area(cell) / area(root).
+    /// SAH cost per ray entering the root, the builders' recursion applied to
+    /// the finished tree: a leaf costs `N * C_isect`, an interior node
+    /// `lambda * (C_trav + P(below) cost(below) + P(above) cost(above))`,
+    /// P = area(child) / area(node), lambda the empty factor when a child is
+    /// an empty leaf. With no empty factor (1.0) this is the classic sum of
+    /// area(cell) / area(root) times C_trav per interior node and N * C_isect
+    /// per leaf.
     pub sah_cost: f64,
     /// Blob bytes per triangle (header, nodes, indices and the triangles).
     pub bytes_per_triangle: f64,
     /// Blob bytes.
     pub bytes: usize,
-}
-
-/// The cost constants [`tree_stats`] weighs nodes with.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CostModel {
-    /// Cost of a traversal step.
-    pub traversal: f64,
-    /// Cost of a triangle test.
-    pub intersection: f64,
-}
-
-impl CostModel {
-    /// The builder's defaults.
-    #[must_use]
-    pub fn from_params(p: &crate::build::BuildParams) -> CostModel {
-        CostModel {
-            traversal: f64::from(p.traversal_cost),
-            intersection: f64::from(p.intersection_cost),
-        }
-    }
 }
 
 /// Walks `tree` and gathers its statistics under `cost`.
@@ -60,7 +46,6 @@ pub fn tree_stats(tree: &TriangleTree<'_>, cost: CostModel) -> TreeStats {
         min: b.min,
         max: b.max,
     };
-    let root_area = root.area();
     let mut s = TreeStats {
         triangles: tree.triangles().len(),
         nodes: tree.nodes().len(),
@@ -78,19 +63,18 @@ pub fn tree_stats(tree: &TriangleTree<'_>, cost: CostModel) -> TreeStats {
         bytes_per_triangle: 0.0,
     };
     let (mut depth_sum, mut refs) = (0u64, 0u64);
+    let nodes = tree.nodes();
+    // Pre-order: cell areas and leaf figures. Children always come after
+    // their parent, so one backward pass then costs every subtree.
+    let mut area = vec![0.0f64; nodes.len()];
     let mut todo = vec![(0u32, root, 0u32)];
     while let Some((i, cell, depth)) = todo.pop() {
-        let Some(node) = tree.nodes().get(i as usize) else {
+        let Some(node) = nodes.get(i as usize) else {
             continue;
         };
-        let p = if root_area > 0.0 {
-            cell.area() / root_area
-        } else {
-            1.0
-        };
+        area[i as usize] = cell.area();
         match node.kind() {
             NodeKind::Interior { axis, split, child } => {
-                s.sah_cost += p * cost.traversal;
                 let (lo, hi) = cell.split(axis.index(), split);
                 todo.push((child, lo, depth + 1));
                 todo.push((child + 1, hi, depth + 1));
@@ -100,10 +84,32 @@ pub fn tree_stats(tree: &TriangleTree<'_>, cost: CostModel) -> TreeStats {
                 s.empty_leaves += usize::from(count == 0);
                 depth_sum += u64::from(depth);
                 refs += u64::from(count);
-                s.sah_cost += p * f64::from(count) * cost.intersection;
             }
         }
     }
+    let mut sub = vec![0.0f64; nodes.len()];
+    for i in (0..nodes.len()).rev() {
+        sub[i] = match nodes[i].kind() {
+            NodeKind::Leaf { count, .. } => cost.leaf(count as usize),
+            NodeKind::Interior { child, .. } => {
+                let (b, a) = (child as usize, child as usize + 1);
+                let (Some(&cb), Some(&ca)) = (sub.get(b), sub.get(a)) else {
+                    continue;
+                };
+                let ratio = |c: usize| {
+                    if area[i] > 0.0 {
+                        area[c] / area[i]
+                    } else {
+                        0.5
+                    }
+                };
+                let empty_leaf =
+                    |c: usize| matches!(nodes[c].kind(), NodeKind::Leaf { count: 0, .. });
+                cost.interior(ratio(b), cb, ratio(a), ca, empty_leaf(b) || empty_leaf(a))
+            }
+        };
+    }
+    s.sah_cost = sub.first().copied().unwrap_or(0.0);
     let full = (s.leaves - s.empty_leaves).max(1) as f64;
     s.mean_leaf_depth = depth_sum as f64 / s.leaves.max(1) as f64;
     s.refs_per_triangle = refs as f64 / s.triangles.max(1) as f64;

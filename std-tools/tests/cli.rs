@@ -232,3 +232,54 @@ fn bad_inputs_get_clear_errors() {
     assert_eq!(kdray(&["trace"]).status.code(), Some(2));
     assert_eq!(kdray(&["frobnicate"]).status.code(), Some(2));
 }
+
+#[test]
+fn render_writes_pictures_and_refuses_bad_flags() {
+    let obj = write(&tmp("render.obj"), QUAD_OBJ);
+    let png = tmp("render.png").display().to_string();
+    for extra in [
+        &[][..],
+        &["--heatmap"],
+        &["--packet", "4"],
+        &["--packet", "1"],
+    ] {
+        let _ = std::fs::remove_file(&png);
+        let mut args = vec![
+            "render", &obj, "-o", &png, "--width", "33", "--height", "17",
+        ];
+        args.extend_from_slice(extra);
+        let o = kdray(&args);
+        assert!(o.status.success(), "{extra:?}: {}", stderr(&o));
+        assert!(stdout(&o).contains("wrote"), "{}", stdout(&o));
+        let bytes = std::fs::read(&png).unwrap();
+        assert_eq!(&bytes[1..4], b"PNG");
+    }
+    let o = kdray(&["render", &obj, "-o", &png, "--packet", "3"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("1, 4 or 8"), "{}", stderr(&o));
+    let o = kdray(&["render", &obj, "-o", &png, "--eye", "1,2"]);
+    assert!(stderr(&o).contains("x,y,z"), "{}", stderr(&o));
+    let bad = write(&tmp("bad.kdt"), b"not a tree");
+    let o = kdray(&["render", &bad, "-o", &png]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("bad.kdt"), "{}", stderr(&o));
+}
+
+#[test]
+fn demo_writes_both_pictures() {
+    let dir = tmp("demo-out");
+    let o = kdray(&[
+        "demo",
+        "--size",
+        "32",
+        "--brute-sample",
+        "10",
+        "--out-dir",
+        &dir.display().to_string(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for name in ["teapot-stadium.png", "teapot-stadium-heatmap.png"] {
+        assert!(dir.join(name).exists(), "{name}");
+        assert!(stdout(&o).contains(name), "{}", stdout(&o));
+    }
+}

@@ -167,6 +167,27 @@ impl<'a> TriangleTree<'a> {
     ///
     /// # Panics
     /// Never. No allocation; the stack is [`MAX_DEPTH`](crate::MAX_DEPTH) entries.
+    ///
+    /// # Example
+    /// ```
+    /// use glam::Vec3;
+    /// use kdray_kernel::{Packet4, TriangleTree};
+    /// static CUBE: &kdray_kernel::Aligned<[u8]> =
+    ///     kdray_kernel::include_aligned!("../../../tests/golden/cube-v1.kdt");
+    /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
+    ///
+    /// // A 2x2 bundle of parallel rays from below the cube.
+    /// let origins = [(0.2, 0.2), (0.4, 0.2), (0.2, 0.4), (0.4, 0.4)]
+    ///     .map(|(x, y)| Vec3::new(x, y, -1.0));
+    /// let packet = Packet4::from_vec3(origins, [Vec3::Z; 4], 0.0, f32::INFINITY);
+    /// let hits = tree.closest_hit4(&packet);
+    /// for (lane, hit) in hits.iter().enumerate() {
+    ///     // Every lane is bit for bit its single ray.
+    ///     assert_eq!(hit.bits(), tree.closest_hit(&packet.ray(lane)).bits());
+    ///     assert_eq!(hit.t, 1.0);
+    /// }
+    /// # Ok::<(), kdray_kernel::BlobError>(())
+    /// ```
     #[inline]
     #[must_use]
     pub fn closest_hit4(&self, packet: &Packet4) -> [Hit; 4] {
@@ -238,6 +259,27 @@ impl<'a> TriangleTree<'a> {
     ///
     /// # Panics
     /// Never.
+    ///
+    /// # Example
+    /// ```
+    /// use glam::Vec3;
+    /// use kdray_kernel::{Hit, Ray, TriangleTree};
+    /// static CUBE: &kdray_kernel::Aligned<[u8]> =
+    ///     kdray_kernel::include_aligned!("../../../tests/golden/cube-v1.kdt");
+    /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
+    ///
+    /// // 11 rays fanning out from inside the cube: a packet of 8, then one of 3.
+    /// let rays: Vec<Ray> = (0..11)
+    ///     .map(|i| Ray::new(Vec3::splat(0.5), Vec3::new(1.0, i as f32 * 0.1 - 0.5, 0.3)))
+    ///     .collect();
+    /// let mut hits = vec![Hit::MISS; rays.len()];
+    /// tree.closest_hits(&rays, &mut hits);
+    /// for (ray, hit) in rays.iter().zip(&hits) {
+    ///     assert!(hit.is_hit()); // the cube is closed
+    ///     assert_eq!(hit.bits(), tree.closest_hit(ray).bits());
+    /// }
+    /// # Ok::<(), kdray_kernel::BlobError>(())
+    /// ```
     pub fn closest_hits(&self, rays: &[Ray], hits: &mut [Hit]) {
         self.closest_hits_with(PacketWidth::Eight, rays, hits);
     }

@@ -73,6 +73,29 @@ impl PointTree<'_> {
     ///
     /// # Panics
     /// Never. No allocation; the stack is [`MAX_DEPTH`](crate::MAX_DEPTH) entries.
+    ///
+    /// # Example
+    /// ```
+    /// use kdray_kernel::{knn_brute, Neighbour, PointTree};
+    /// use kdray_tools::points::{build_points, PointParams};
+    /// use kdray_tools::blob::write_point_tree;
+    ///
+    /// // A 10 x 10 x 10 grid of points; point i is at (i % 10, i / 10 % 10, i / 100).
+    /// let points: Vec<[f32; 3]> = (0..1000)
+    ///     .map(|i| [(i % 10) as f32, (i / 10 % 10) as f32, (i / 100) as f32])
+    ///     .collect();
+    /// let blob = write_point_tree(&build_points(&points, &PointParams::default())?);
+    /// let tree = PointTree::from_bytes(blob.as_bytes())?;
+    /// let q = [0.0, 0.0, 0.0];
+    /// let mut out = [Neighbour::NONE; 4];
+    /// assert_eq!(tree.knn(q, &mut out), 4);
+    /// // The corner, then its three neighbours at distance 1, lowest index first.
+    /// assert_eq!(out.map(|n| (n.index, n.d2)), [(0, 0.0), (1, 1.0), (10, 1.0), (100, 1.0)]);
+    /// let mut brute = [Neighbour::NONE; 4];
+    /// knn_brute(&points, q, f32::INFINITY, &mut brute);
+    /// assert_eq!(out.map(Neighbour::bits), brute.map(Neighbour::bits));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn knn(&self, q: [f32; 3], out: &mut [Neighbour]) -> usize {
         self.knn_within(q, f32::INFINITY, out)
     }

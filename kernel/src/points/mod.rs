@@ -49,7 +49,7 @@ pub use within::{within_brute, BufferTooSmall};
 
 use crate::error::BlobError;
 use crate::node::{Node, NodeKind};
-use crate::tree::{validate_nodes_with, Bounds, MAX_DEPTH};
+use crate::tree::{validate_nodes_with, Bounds};
 use crate::wire::{self, Header, Sections, KIND_POINTS};
 use bytemuck::{Pod, Zeroable};
 
@@ -139,6 +139,24 @@ impl<'a> PointTree<'a> {
     ///
     /// # Panics
     /// Never, for any input.
+    ///
+    /// # Example
+    /// ```
+    /// use kdray_kernel::PointTree;
+    /// use kdray_tools::points::{build_points, PointParams};
+    /// use kdray_tools::blob::write_point_tree;
+    ///
+    /// // A 10 x 10 x 10 grid of points; point i is at (i % 10, i / 10 % 10, i / 100).
+    /// let points: Vec<[f32; 3]> = (0..1000)
+    ///     .map(|i| [(i % 10) as f32, (i / 10 % 10) as f32, (i / 100) as f32])
+    ///     .collect();
+    /// let blob = write_point_tree(&build_points(&points, &PointParams::default())?);
+    /// let tree = PointTree::from_bytes(blob.as_bytes())?;
+    /// assert_eq!(tree.points().len(), 1000);
+    /// // A triangle blob is not a point blob.
+    /// assert!(PointTree::from_bytes(&blob.as_bytes()[..64]).is_err());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn from_bytes(bytes: &'a [u8]) -> Result<Self, BlobError> {
         let (header, tree, whole) = Self::sections(bytes)?;
         wire::verify_checksum(header, whole)?;
@@ -147,12 +165,7 @@ impl<'a> PointTree<'a> {
         if root.map(|b| (b.min, b.max)) != Some((header.bounds_min, header.bounds_max)) {
             return Err(BlobError::BadBounds);
         }
-        if tree.max_depth != header.max_depth {
-            return Err(BlobError::BadHeaderField {
-                what: "max_depth",
-                found: header.max_depth,
-            });
-        }
+        header.expect_depth(tree.max_depth)?;
         Ok(tree)
     }
 
@@ -169,13 +182,7 @@ impl<'a> PointTree<'a> {
     /// running time) rely on the validated invariants.
     pub unsafe fn from_bytes_unchecked(bytes: &'a [u8]) -> Result<Self, BlobError> {
         let (header, tree, _) = Self::sections(bytes)?;
-        if header.max_depth > MAX_DEPTH {
-            return Err(BlobError::TooDeep {
-                node: 0,
-                depth: header.max_depth,
-                max: MAX_DEPTH,
-            });
-        }
+        header.depth_fits_stack()?;
         Ok(tree)
     }
 
@@ -200,7 +207,7 @@ impl<'a> PointTree<'a> {
 
     /// A view of a tree held in memory (a builder's output), validated like
     /// a blob: one index per point and one box per node; the depth-first
-    /// node layout, finite splits and depth at most [`MAX_DEPTH`] (as for
+    /// node layout, finite splits and depth at most [`MAX_DEPTH`](crate::MAX_DEPTH) (as for
     /// triangle trees); every box finite, not inverted and inside its
     /// parent's; leaf runs tiling the points in depth-first order; every
     /// point inside its leaf's box; each leaf's indices strictly increasing

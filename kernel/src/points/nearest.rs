@@ -49,6 +49,24 @@ impl PointTree<'_> {
     ///
     /// # Panics
     /// Never. No allocation; the stack is [`MAX_DEPTH`](crate::MAX_DEPTH) entries.
+    ///
+    /// # Example
+    /// ```
+    /// use kdray_kernel::PointTree;
+    /// use kdray_tools::points::{build_points, PointParams};
+    /// use kdray_tools::blob::write_point_tree;
+    ///
+    /// // A 10 x 10 x 10 grid of points; point i is at (i % 10, i / 10 % 10, i / 100).
+    /// let points: Vec<[f32; 3]> = (0..1000)
+    ///     .map(|i| [(i % 10) as f32, (i / 10 % 10) as f32, (i / 100) as f32])
+    ///     .collect();
+    /// let blob = write_point_tree(&build_points(&points, &PointParams::default())?);
+    /// let tree = PointTree::from_bytes(blob.as_bytes())?;
+    /// let n = tree.nearest([3.2, 4.1, 5.4]).unwrap();
+    /// assert_eq!(n.index, 543); // the grid point (3, 4, 5)
+    /// assert!(tree.nearest([f32::NAN, 0.0, 0.0]).is_none());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     #[must_use]
     pub fn nearest(&self, q: [f32; 3]) -> Option<Neighbour> {
         self.nearest_within(q, f32::INFINITY)

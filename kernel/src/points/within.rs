@@ -70,6 +70,28 @@ impl PointTree<'_> {
     ///
     /// # Panics
     /// Never. No allocation.
+    ///
+    /// # Example
+    /// ```
+    /// use kdray_kernel::{Neighbour, PointTree};
+    /// use kdray_tools::points::{build_points, PointParams};
+    /// use kdray_tools::blob::write_point_tree;
+    ///
+    /// // A 10 x 10 x 10 grid of points; point i is at (i % 10, i / 10 % 10, i / 100).
+    /// let points: Vec<[f32; 3]> = (0..1000)
+    ///     .map(|i| [(i % 10) as f32, (i / 10 % 10) as f32, (i / 100) as f32])
+    ///     .collect();
+    /// let blob = write_point_tree(&build_points(&points, &PointParams::default())?);
+    /// let tree = PointTree::from_bytes(blob.as_bytes())?;
+    /// let mut out = [Neighbour::NONE; 8];
+    /// // Radius 1 (squared: 1) around a grid point: itself and its 6 neighbours.
+    /// assert_eq!(tree.within([5.0, 5.0, 5.0], 1.0, &mut out), Ok(7));
+    /// assert_eq!(out[0].index, 555);
+    /// // Too small a buffer says how many it would have needed.
+    /// let err = tree.within([5.0, 5.0, 5.0], 1.0, &mut out[..3]).unwrap_err();
+    /// assert_eq!(err.needed, 7);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn within(
         &self,
         q: [f32; 3],

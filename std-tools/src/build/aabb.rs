@@ -79,4 +79,13 @@ impl Aabb {
             max: self.max,
         }
     }
+
+    /// The box of the kernel's bounds (a tree's scene box).
+    #[must_use]
+    pub fn from_bounds(b: &Bounds) -> Aabb {
+        Aabb {
+            min: b.min,
+            max: b.max,
+        }
+    }
 }

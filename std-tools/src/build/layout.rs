@@ -24,6 +24,28 @@ pub enum BuildNode {
     },
 }
 
+impl BuildNode {
+    /// Is this a leaf without primitives (an empty cell)?
+    #[must_use]
+    pub fn is_empty_leaf(&self) -> bool {
+        matches!(self, BuildNode::Leaf(p) if p.is_empty())
+    }
+
+    /// Appends the primitives of every leaf below to `out` (with repeats).
+    pub fn collect_prims(&self, out: &mut Vec<u32>) {
+        let mut todo = vec![self];
+        while let Some(n) = todo.pop() {
+            match n {
+                BuildNode::Leaf(p) => out.extend_from_slice(p),
+                BuildNode::Interior { below, above, .. } => {
+                    todo.push(above);
+                    todo.push(below);
+                }
+            }
+        }
+    }
+}
+
 /// Lays `root` out for the kernel. Node fields cannot overflow: the caller
 /// checked the triangle count, and a tree over n < 2^30 primitives with
 /// depth <= 64 that the builders make has far fewer than 2^30 nodes... or

@@ -9,12 +9,15 @@ macro_rules! say {
     }};
 }
 
+mod bench;
 mod build;
 mod build_points;
 mod demo;
 mod info;
 mod json;
 mod knn;
+mod progress;
+mod render;
 mod report;
 mod trace;
 
@@ -41,8 +44,12 @@ enum Command {
     BuildPoints(build_points::Args),
     /// Answer the k nearest points of every query in a file.
     Knn(knn::Args),
+    /// Render a mesh or tree to PNG: shaded, or a traversal-cost heatmap.
+    Render(render::Args),
     /// Build and trace the built-in teapot-in-a-stadium scene (the default).
     Demo(demo::Args),
+    /// Compare the builders: build time, tree quality and trace speed.
+    Bench(bench::Args),
 }
 
 /// What a subcommand returns: an error message for the user, already
@@ -57,7 +64,9 @@ pub(crate) fn main() -> ExitCode {
         Some(Command::Trace(a)) => trace::run(&a),
         Some(Command::BuildPoints(a)) => build_points::run(&a),
         Some(Command::Knn(a)) => knn::run(&a),
+        Some(Command::Render(a)) => render::run(&a),
         Some(Command::Demo(a)) => demo::run(&a),
+        Some(Command::Bench(a)) => bench::run(&a),
         None => demo::run(&demo::Args::default()),
     };
     match result {

@@ -1,13 +1,17 @@
 //! Mesh loaders: a file in, triangles out, numbered as `formats/RAYS.md`
 //! says (faces in file order, an n-gon fanned as `(v0, v[i], v[i+1])`).
 
+mod gltf;
 mod obj;
+mod ply;
 
 use kdray_kernel::Triangle;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+pub use gltf::load_gltf;
 pub use obj::load_obj;
+pub use ply::load_ply;
 
 /// A mesh that could not be loaded: the file, the line when known, and why.
 #[derive(Debug)]
@@ -55,16 +59,28 @@ pub fn load(path: &Path) -> Result<Vec<Triangle>, MeshError> {
         .unwrap_or_default();
     let tris = match ext.as_str() {
         "obj" => load_obj(path)?,
+        "ply" => load_ply(path)?,
+        "gltf" | "glb" => load_gltf(path)?,
         _ => {
             return Err(MeshError::new(
                 path,
                 None,
-                format!("unsupported mesh format {ext:?} (supported: .obj)"),
+                format!("unsupported mesh format {ext:?} (supported: .obj, .ply, .gltf, .glb)"),
             ))
         }
     };
     check_finite(path, &tris)?;
     Ok(tris)
+}
+
+/// Calls `emit` with the triangles of polygon `poly` fanned from its first
+/// vertex, `(v0, v[i], v[i+1])` (nothing for fewer than 3 vertices).
+pub(crate) fn fan(poly: &[u32], mut emit: impl FnMut([u32; 3])) {
+    if let Some((&v0, rest)) = poly.split_first() {
+        for pair in rest.windows(2) {
+            emit([v0, pair[0], pair[1]]);
+        }
+    }
 }
 
 /// Refuses triangles with NaN or infinite coordinates, naming the first.

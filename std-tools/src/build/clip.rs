@@ -1,0 +1,251 @@
+//! Perfect splits: the box of the part of a triangle inside a cell.
+//!
+//! A triangle that straddles a split plane is clipped (Sutherland-Hodgman,
+//! on the triangle itself, not its box) to each child's cell, so each child
+//! sees only the box of what really lies in it: tighter boxes, fewer
+//! references, and triangles that only graze a child's box are dropped.
+//!
+//! The box must never lose a point of the triangle, or the tree would lose
+//! hits. So the clip is conservative: it runs in `f64` against the cell
+//! grown by a margin `eps` far above the `f64` rounding of the clip and far
+//! below an `f32` ulp of the scene's coordinates, the resulting box is grown
+//! by `eps` again, rounded outward to `f32` (next float toward -inf for the
+//! minimum, toward +inf for the maximum) and intersected with the cell.
+//! A triangle is dropped from a cell only when it misses the grown cell.
+
+use super::aabb::Aabb;
+use kdray_kernel::Triangle;
+
+/// The margin relative to the largest coordinate magnitude: 2^-40, about
+/// 2^12 times the `f64` rounding of six clips and 2^-16 of an `f32` ulp.
+const MARGIN: f64 = 1.0 / 1_099_511_627_776.0;
+
+/// Vertices of a triangle clipped by six planes: at most 3 + 6.
+const MAX_VERTICES: usize = 9;
+
+/// A convex polygon on a fixed buffer.
+#[derive(Clone, Copy)]
+struct Polygon {
+    v: [[f64; 3]; MAX_VERTICES],
+    len: usize,
+}
+
+impl Polygon {
+    /// Keeps the part on the inner side of the plane `x[axis] = plane`:
+    /// `x[axis] >= plane` when `keep_above`, else `x[axis] <= plane`.
+    fn clip(self, axis: usize, plane: f64, keep_above: bool) -> Polygon {
+        let inside = |p: &[f64; 3]| {
+            if keep_above {
+                p[axis] >= plane
+            } else {
+                p[axis] <= plane
+            }
+        };
+        if self.v[..self.len].iter().all(inside) {
+            // Most planes cut nothing: skip the copy.
+            return self;
+        }
+        let mut out = Polygon {
+            v: [[0.0; 3]; MAX_VERTICES],
+            len: 0,
+        };
+        let mut push = |p: [f64; 3]| {
+            if let Some(slot) = out.v.get_mut(out.len) {
+                *slot = p;
+                out.len += 1;
+            }
+        };
+        for i in 0..self.len {
+            let (a, b) = (self.v[i], self.v[(i + 1) % self.len]);
+            if inside(&a) {
+                push(a);
+            }
+            if inside(&a) != inside(&b) {
+                // The edge crosses the plane: add the crossing point, on
+                // the plane exactly.
+                let t = (plane - a[axis]) / (b[axis] - a[axis]);
+                let mut p: [f64; 3] = std::array::from_fn(|k| a[k] + t * (b[k] - a[k]));
+                p[axis] = plane;
+                push(p);
+            }
+        }
+        out
+    }
+}
+
+/// The largest `f32` at most `x`.
+fn round_down(x: f64) -> f32 {
+    let f = x as f32;
+    if f64::from(f) > x {
+        f.next_down()
+    } else {
+        f
+    }
+}
+
+/// The smallest `f32` at least `x`.
+fn round_up(x: f64) -> f32 {
+    let f = x as f32;
+    if f64::from(f) < x {
+        f.next_up()
+    } else {
+        f
+    }
+}
+
+/// The boxes of the parts of `tri` in the two cells made by splitting
+/// `cell` at `pos` on `axis` (below, above): each holds every point of the
+/// triangle in its closed cell and lies within it; `None` for a cell the
+/// triangle misses. The triangle is clipped to `cell` once, then cut by
+/// the plane.
+#[must_use]
+pub(super) fn split_boxes(
+    tri: &Triangle,
+    cell: &Aabb,
+    axis: usize,
+    pos: f32,
+) -> (Option<Aabb>, Option<Aabb>) {
+    let eps = margin(tri, cell);
+    let poly = clip_to_cell(tri, cell, eps);
+    let (below, above) = cell.split(axis, pos);
+    let plane = f64::from(pos);
+    (
+        bounds(&poly.clip(axis, plane + eps, false), &below, eps),
+        bounds(&poly.clip(axis, plane - eps, true), &above, eps),
+    )
+}
+
+/// A box holding every point of `tri` that lies in the closed `cell`,
+/// within `cell`; `None` when the triangle misses the cell.
+#[must_use]
+#[cfg(test)]
+pub(super) fn clipped_box(tri: &Triangle, cell: &Aabb) -> Option<Aabb> {
+    let eps = margin(tri, cell);
+    bounds(&clip_to_cell(tri, cell, eps), cell, eps)
+}
+
+/// The clip margin for `tri` in `cell`.
+fn margin(tri: &Triangle, cell: &Aabb) -> f64 {
+    let scale = tri
+        .v
+        .iter()
+        .flatten()
+        .chain(&cell.min)
+        .chain(&cell.max)
+        .fold(0.0f64, |m, &c| m.max(f64::from(c).abs()));
+    scale * MARGIN
+}
+
+/// `tri` clipped to `cell` grown by `eps`.
+fn clip_to_cell(tri: &Triangle, cell: &Aabb, eps: f64) -> Polygon {
+    let mut poly = Polygon {
+        v: [[0.0; 3]; MAX_VERTICES],
+        len: 3,
+    };
+    for (slot, p) in poly.v.iter_mut().zip(&tri.v) {
+        *slot = p.map(f64::from);
+    }
+    for axis in 0..3 {
+        poly = poly.clip(axis, f64::from(cell.min[axis]) - eps, true);
+        poly = poly.clip(axis, f64::from(cell.max[axis]) + eps, false);
+    }
+    poly
+}
+
+/// The box of `poly` grown by `eps`, rounded outward, within `cell`.
+fn bounds(poly: &Polygon, cell: &Aabb, eps: f64) -> Option<Aabb> {
+    if poly.len == 0 {
+        return None;
+    }
+    let mut b = Aabb::EMPTY;
+    for p in &poly.v[..poly.len] {
+        for (a, &x) in p.iter().enumerate() {
+            b.min[a] = b.min[a].min(round_down(x - eps));
+            b.max[a] = b.max[a].max(round_up(x + eps));
+        }
+    }
+    let b = b.intersect(cell);
+    (0..3).all(|a| b.min[a] <= b.max[a]).then_some(b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tri(v: [[f32; 3]; 3]) -> Triangle {
+        Triangle { v }
+    }
+
+    fn cell(min: [f32; 3], max: [f32; 3]) -> Aabb {
+        Aabb { min, max }
+    }
+
+    #[test]
+    fn diagonal_triangle_gets_a_tighter_box_than_its_box() {
+        let t = tri([[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [0.0, 4.0, 0.0]]);
+        let b = clipped_box(&t, &cell([2.0, 0.0, 0.0], [4.0, 4.0, 1.0])).unwrap();
+        assert_eq!(b.min[0], 2.0f32.next_down().max(2.0));
+        // Only y <= 2 of the triangle lies at x >= 2.
+        assert!(b.max[1] > 2.0 && b.max[1] < 2.0001, "{b:?}");
+    }
+
+    #[test]
+    fn split_boxes_hold_what_clipped_boxes_hold() {
+        let t = tri([[0.0, 0.0, 0.0], [4.0, 1.0, 0.5], [0.5, 4.0, 1.0]]);
+        let c = cell([0.0, 0.0, 0.0], [4.0, 4.0, 1.0]);
+        let (b, a) = split_boxes(&t, &c, 0, 2.0);
+        let (cb, ca) = c.split(0, 2.0);
+        for (got, want) in [(b, clipped_box(&t, &cb)), (a, clipped_box(&t, &ca))] {
+            let (g, w) = (got.unwrap(), want.unwrap());
+            assert!((0..3).all(|k| g.min[k] <= w.min[k] + 1e-6 && g.max[k] >= w.max[k] - 1e-6));
+        }
+    }
+
+    #[test]
+    fn triangle_missing_the_cell_is_dropped() {
+        let t = tri([[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [0.0, 4.0, 0.0]]);
+        assert!(clipped_box(&t, &cell([3.0, 3.0, -1.0], [4.0, 4.0, 1.0])).is_none());
+    }
+
+    #[test]
+    fn grazing_triangle_is_kept() {
+        // Touches the cell at one vertex only.
+        let t = tri([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0]]);
+        let b = clipped_box(&t, &cell([2.0, -1.0, -1.0], [3.0, 1.0, 1.0])).unwrap();
+        assert!(b.min[0] <= 2.0 && b.max[0] >= 2.0);
+    }
+
+    #[test]
+    fn box_holds_every_clipped_point() {
+        let mut s = 7u64;
+        let mut r = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((s >> 40) as f32) / (1u64 << 24) as f32 * 2.0 - 1.0
+        };
+        for _ in 0..2000 {
+            let t = tri(std::array::from_fn(|_| std::array::from_fn(|_| r() * 1e3)));
+            let c = cell(
+                [r() * 500.0, r() * 500.0, r() * 500.0],
+                [600.0, 600.0, 600.0],
+            );
+            let b = clipped_box(&t, &c);
+            // Points of the triangle (barycentric grid) inside the cell are inside the box.
+            for i in 0..=20 {
+                for j in 0..=(20 - i) {
+                    let (u, v) = (i as f32 / 20.0, j as f32 / 20.0);
+                    let p: [f32; 3] = std::array::from_fn(|a| {
+                        t.v[0][a] + u * (t.v[1][a] - t.v[0][a]) + v * (t.v[2][a] - t.v[0][a])
+                    });
+                    if (0..3).all(|a| p[a] >= c.min[a] && p[a] <= c.max[a]) {
+                        let b = b.expect("a point inside: kept");
+                        let slack = |a: usize| 1e-3 * (1.0 + p[a].abs());
+                        assert!((0..3)
+                            .all(|a| p[a] >= b.min[a] - slack(a) && p[a] <= b.max[a] + slack(a)));
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,118 @@
+//! The surface area heuristic's cost model: what a split plane costs a ray
+//! that enters the cell, against making the cell a leaf.
+//!
+//! ```text
+//! leaf  = C_isect * N
+//! split = lambda * (C_trav + C_isect * (SA(below)/SA(cell) * N(below)
+//!                                      + SA(above)/SA(cell) * N(above)))
+//! lambda = empty_factor when one side is empty (an empty cell is cut off), else 1
+//! ```
+//!
+//! The builders weigh candidate planes with it and the statistics weigh
+//! finished trees with it, so a tree's cost and its builder's choices are
+//! measured in the same units.
+
+use super::aabb::Aabb;
+
+/// The constants of the cost model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CostModel {
+    /// Cost of one traversal step (C_trav).
+    pub traversal: f64,
+    /// Cost of one ray/triangle test (C_isect).
+    pub intersection: f64,
+    /// Factor applied to a split with an empty side (lambda; 1 = no bonus).
+    pub empty_factor: f64,
+}
+
+impl CostModel {
+    /// Wald & Havran 2006's published constants (traversal 15,
+    /// intersection 20, empty cells 0.8), for comparing with their figures.
+    pub const WALD_HAVRAN: CostModel = CostModel {
+        traversal: 15.0,
+        intersection: 20.0,
+        empty_factor: 0.8,
+    };
+
+    /// The model a build with `p` uses.
+    #[must_use]
+    pub fn from_params(p: &super::BuildParams) -> CostModel {
+        CostModel {
+            traversal: f64::from(p.traversal_cost),
+            intersection: f64::from(p.intersection_cost),
+            empty_factor: 1.0 - f64::from(p.empty_bonus),
+        }
+    }
+
+    /// The cost of a leaf of `n` triangles.
+    #[inline]
+    #[must_use]
+    pub fn leaf(&self, n: usize) -> f64 {
+        self.intersection * n as f64
+    }
+
+    /// The cost of an interior node whose children cost `below` and `above`
+    /// (per ray entering them) and cover the fractions `p_below`, `p_above`
+    /// of the cell's surface area; `empty` when a side holds no triangle.
+    #[inline]
+    #[must_use]
+    pub fn interior(&self, p_below: f64, below: f64, p_above: f64, above: f64, empty: bool) -> f64 {
+        let lambda = if empty { self.empty_factor } else { 1.0 };
+        lambda * (self.traversal + p_below * below + p_above * above)
+    }
+
+    /// The cost of splitting with `n_below` and `n_above` triangles on each
+    /// side, the children taken as leaves.
+    #[inline]
+    #[must_use]
+    pub fn split(&self, p_below: f64, n_below: usize, p_above: f64, n_above: usize) -> f64 {
+        let empty = n_below == 0 || n_above == 0;
+        self.interior(
+            p_below,
+            self.leaf(n_below),
+            p_above,
+            self.leaf(n_above),
+            empty,
+        )
+    }
+}
+
+/// The surface areas of a cell's two halves as fractions of the cell's,
+/// for planes along one axis, without building the boxes.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct AreaRatios {
+    lo: f64,
+    /// 2 * (sum of the other two extents) / SA(cell).
+    per_length: f64,
+    /// 2 * (product of the other two extents) / SA(cell).
+    cap: f64,
+    hi: f64,
+}
+
+impl AreaRatios {
+    /// For planes along `axis` of `cell`; `None` when the cell has no area.
+    pub(super) fn new(cell: &Aabb, axis: usize) -> Option<AreaRatios> {
+        let area = cell.area();
+        if area <= 0.0 {
+            return None;
+        }
+        let d = |a: usize| f64::from(cell.max[a]) - f64::from(cell.min[a]);
+        let (u, v) = (d((axis + 1) % 3), d((axis + 2) % 3));
+        Some(AreaRatios {
+            lo: f64::from(cell.min[axis]),
+            per_length: 2.0 * (u + v) / area,
+            cap: 2.0 * u * v / area,
+            hi: f64::from(cell.max[axis]),
+        })
+    }
+
+    /// (SA(below), SA(above)) / SA(cell) for the plane at `pos`.
+    #[inline]
+    pub(super) fn at(&self, pos: f32) -> (f64, f64) {
+        let p = f64::from(pos);
+        (
+            self.cap + self.per_length * (p - self.lo),
+            self.cap + self.per_length * (self.hi - p),
+        )
+    }
+}

@@ -1,0 +1,170 @@
+//! The recursion every builder shares: pick a split plane for the cell,
+//! hand each triangle to the child cells it lies in, recurse, and decide
+//! whether the subtree paid for itself. The builders differ only in how
+//! they hold a cell's triangles and pick the plane ([`Splitter`]).
+//!
+//! Termination (PBRT's and Wald & Havran's rules, with a look-ahead):
+//! - no triangles, the depth limit, or a cell smaller than the size
+//!   threshold makes a leaf;
+//! - a split whose cost (children taken as leaves) is not below the leaf's
+//!   is still tried, up to `lookahead` such splits in a row, because the
+//!   children's own splits may pay; a subtree whose measured cost is not
+//!   below the leaf's is then collapsed back into a leaf;
+//! - builders without a cost model (the median and middle baselines) stop
+//!   by count and depth, and when a split leaves one side with every
+//!   triangle or more than half of them straddle the plane.
+//!
+//! Subtrees above [`PARALLEL_MIN`] triangles are built with `rayon::join`.
+//! Every decision depends only on the cell and its triangles, never on
+//! which thread runs it, so the tree is the same for any thread count.
+
+use super::aabb::Aabb;
+use super::cost::CostModel;
+use super::monitor::BuildMonitor;
+use super::BuildNode;
+use kdray_kernel::Axis;
+
+/// Cells with at least this many triangles build their children in parallel
+/// (and builders may parallelise their own sweeps and partitions).
+pub(super) const PARALLEL_MIN: usize = 4096;
+
+/// A split plane a builder picked.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Choice {
+    /// The split axis, 0..3.
+    pub(super) axis: usize,
+    /// The plane, strictly inside the cell.
+    pub(super) pos: f32,
+    /// Triangles lying in the plane go below (else above).
+    pub(super) planar_below: bool,
+    /// The estimated cost of the split, for builders with a cost model.
+    pub(super) cost: Option<f64>,
+}
+
+/// How a builder holds a cell's triangles and splits them.
+pub(super) trait Splitter: Sync {
+    /// The triangles of one cell.
+    type Set: Send;
+    /// How many triangles.
+    fn count(&self, set: &Self::Set) -> usize;
+    /// Working-set bytes, for the memory report.
+    fn bytes(&self, set: &Self::Set) -> usize;
+    /// The triangle indices, sorted, for a leaf.
+    fn prims(&self, set: Self::Set) -> Vec<u32>;
+    /// The split plane for `cell`, or `None` to make a leaf.
+    fn choose(&self, set: &Self::Set, cell: &Aabb) -> Option<Choice>;
+    /// The triangles of the cells below and above the plane.
+    fn partition(&self, set: Self::Set, cell: &Aabb, c: &Choice) -> (Self::Set, Self::Set);
+}
+
+/// The limits of one build.
+pub(super) struct Limits {
+    /// The cost model, also used to decide collapses.
+    pub(super) cost: CostModel,
+    /// Leaves at this depth at the latest.
+    pub(super) depth: u32,
+    /// Cells whose largest extent is below this are leaves.
+    pub(super) min_extent: f32,
+    /// Non-paying splits allowed in a row.
+    pub(super) lookahead: u32,
+}
+
+/// Builds the tree over `set` in `bounds`.
+pub(super) fn subdivide<S: Splitter>(
+    s: &S,
+    set: S::Set,
+    bounds: Aabb,
+    limits: &Limits,
+    monitor: &BuildMonitor,
+) -> BuildNode {
+    monitor.allocated(s.bytes(&set));
+    let walk = Walk { s, limits, monitor };
+    walk.node(set, bounds, 0, 0, BuildMonitor::WHOLE).0
+}
+
+struct Walk<'a, S> {
+    s: &'a S,
+    limits: &'a Limits,
+    monitor: &'a BuildMonitor,
+}
+
+impl<S: Splitter> Walk<'_, S> {
+    /// The subtree for `cell` and its cost per ray entering the cell.
+    /// `bad`: non-paying splits just above; `units`: its progress share.
+    fn node(&self, set: S::Set, cell: Aabb, depth: u32, bad: u32, units: u64) -> (BuildNode, f64) {
+        let n = self.s.count(&set);
+        let leaf_cost = self.limits.cost.leaf(n);
+        let extent = (0..3).fold(0.0f32, |m, a| m.max(cell.max[a] - cell.min[a]));
+        if n == 0 || depth >= self.limits.depth || extent < self.limits.min_extent {
+            return (self.leaf(set, units), leaf_cost);
+        }
+        let Some(c) = self.s.choose(&set, &cell) else {
+            return (self.leaf(set, units), leaf_cost);
+        };
+        let pays = c.cost.is_none_or(|x| x < leaf_cost);
+        if !pays && bad >= self.limits.lookahead {
+            return (self.leaf(set, units), leaf_cost);
+        }
+        let set_bytes = self.s.bytes(&set);
+        let (below, above) = self.s.partition(set, &cell, &c);
+        self.monitor
+            .allocated(self.s.bytes(&below) + self.s.bytes(&above));
+        self.monitor.freed(set_bytes);
+        let (nb, na) = (self.s.count(&below), self.s.count(&above));
+        if c.cost.is_none() && (nb.max(na) == n || 2 * (nb + na) > 3 * n) {
+            // A baseline made no progress (one half holds everything) or
+            // more than half the triangles straddle the plane: the cells
+            // are already smaller than the triangles, and splitting on
+            // would only multiply references.
+            self.monitor
+                .freed(self.s.bytes(&below) + self.s.bytes(&above));
+            self.monitor.finished(units);
+            let mut prims = self.s.prims(below);
+            prims.extend(self.s.prims(above));
+            prims.sort_unstable();
+            prims.dedup();
+            return (BuildNode::Leaf(prims), leaf_cost);
+        }
+        let ub = if nb + na == 0 {
+            units / 2
+        } else {
+            (u128::from(units) * nb as u128 / (nb + na) as u128) as u64
+        };
+        let (cb, ca) = cell.split(c.axis, c.pos);
+        let bad = bad + u32::from(!pays);
+        let go_below = || self.node(below, cb, depth + 1, bad, ub);
+        let go_above = || self.node(above, ca, depth + 1, bad, units - ub);
+        let ((below, cost_b), (above, cost_a)) = if n >= PARALLEL_MIN {
+            rayon::join(go_below, go_above)
+        } else {
+            (go_below(), go_above())
+        };
+        let area = cell.area();
+        let (pb, pa) = (cb.area() / area, ca.area() / area);
+        let empty = below.is_empty_leaf() || above.is_empty_leaf();
+        let cost = self.limits.cost.interior(pb, cost_b, pa, cost_a, empty);
+        if c.cost.is_some() && cost >= leaf_cost {
+            // The look-ahead did not pay off: back to one leaf.
+            let mut prims = Vec::new();
+            below.collect_prims(&mut prims);
+            above.collect_prims(&mut prims);
+            prims.sort_unstable();
+            prims.dedup();
+            return (BuildNode::Leaf(prims), leaf_cost);
+        }
+        let axis = Axis::from_index(c.axis).unwrap_or(Axis::X);
+        let node = BuildNode::Interior {
+            axis,
+            split: c.pos,
+            below: Box::new(below),
+            above: Box::new(above),
+        };
+        (node, cost)
+    }
+
+    fn leaf(&self, set: S::Set, units: u64) -> BuildNode {
+        self.monitor.freed(self.s.bytes(&set));
+        self.monitor.finished(units);
+        BuildNode::Leaf(self.s.prims(set))
+    }
+}

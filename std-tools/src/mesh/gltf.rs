@@ -1,0 +1,266 @@
+//! glTF 2.0 (`.gltf` with external or `data:` URI buffers, and `.glb`):
+//! every triangle primitive of every mesh in the default scene (else the
+//! first scene), in depth-first node order, with node transforms applied.
+//! `gltf` parses and validates the JSON; the accessor bytes are read here
+//! so every range is checked and a bad one is named.
+
+use super::{fan, MeshError};
+use base64::Engine as _;
+use glam::{Mat4, Vec3};
+use gltf::accessor::{DataType, Dimensions};
+use gltf::mesh::Mode;
+use gltf::Accessor;
+use kdray_kernel::Triangle;
+use std::path::Path;
+
+/// Loads the triangles of a glTF 2.0 file (`.gltf` or `.glb`). Points and
+/// lines are skipped; strips and fans are unrolled; non-indexed
+/// primitives use their vertices in order.
+///
+/// # Errors
+/// A [`MeshError`] naming the file and the buffer, node, mesh, primitive or
+/// accessor at fault: malformed JSON (with its line), a missing buffer, an
+/// accessor past the end of its buffer view, an index out of range, a node
+/// met twice in the hierarchy.
+pub fn load_gltf(path: &Path) -> Result<Vec<Triangle>, MeshError> {
+    let err = |msg: String| MeshError::new(path, None, msg);
+    let bytes = std::fs::read(path).map_err(|e| err(format!("cannot open: {e}")))?;
+    let g = gltf::Gltf::from_slice(&bytes).map_err(|e| err(format!("malformed glTF: {e}")))?;
+    let buffers = g
+        .document
+        .buffers()
+        .map(|b| load_buffer(path, &b, g.blob.as_deref()))
+        .collect::<Result<Vec<_>, _>>()?;
+    let scene = g
+        .document
+        .default_scene()
+        .or_else(|| g.document.scenes().next())
+        .ok_or_else(|| err("no scene to load".into()))?;
+    let mut seen = vec![false; g.document.nodes().len()];
+    let mut tris = Vec::new();
+    // Depth-first, parents before children, in file order.
+    let mut stack: Vec<(gltf::Node<'_>, Mat4)> = Vec::new();
+    push_reversed(&mut stack, scene.nodes(), Mat4::IDENTITY);
+    while let Some((node, parent)) = stack.pop() {
+        let Some(seen) = seen.get_mut(node.index()).filter(|s| !**s) else {
+            return Err(err(format!(
+                "node {} appears twice in scene {}'s hierarchy (a cycle or a shared child)",
+                node.index(),
+                scene.index()
+            )));
+        };
+        *seen = true;
+        let m = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        if let Some(mesh) = node.mesh() {
+            for prim in mesh.primitives() {
+                let at = format!("mesh {} primitive {}", mesh.index(), prim.index());
+                add_primitive(path, &at, &prim, &buffers, m, &mut tris)?;
+            }
+        }
+        push_reversed(&mut stack, node.children(), m);
+    }
+    Ok(tris)
+}
+
+/// Pushes `nodes` under transform `m` so that the first pops first.
+fn push_reversed<'a>(
+    stack: &mut Vec<(gltf::Node<'a>, Mat4)>,
+    nodes: impl Iterator<Item = gltf::Node<'a>>,
+    m: Mat4,
+) {
+    let start = stack.len();
+    stack.extend(nodes.map(|n| (n, m)));
+    stack[start..].reverse();
+}
+
+/// The bytes of buffer `b`: the GLB's BIN chunk, a `data:` URI, or a file
+/// next to the glTF.
+fn load_buffer(
+    path: &Path,
+    b: &gltf::Buffer<'_>,
+    blob: Option<&[u8]>,
+) -> Result<Vec<u8>, MeshError> {
+    let err = |msg: String| MeshError::new(path, None, format!("buffer {}: {msg}", b.index()));
+    let data = match b.source() {
+        gltf::buffer::Source::Bin => blob
+            .ok_or_else(|| err("refers to the GLB BIN chunk, which is missing".into()))?
+            .to_vec(),
+        gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
+            let (_, payload) = uri
+                .split_once(";base64,")
+                .ok_or_else(|| err("data URI is not base64".into()))?;
+            base64::engine::general_purpose::STANDARD
+                .decode(payload)
+                .map_err(|e| err(format!("bad base64 in data URI: {e}")))?
+        }
+        gltf::buffer::Source::Uri(uri) => {
+            let file = path.parent().unwrap_or(Path::new("")).join(uri);
+            std::fs::read(&file).map_err(|e| err(format!("cannot read {}: {e}", file.display())))?
+        }
+    };
+    if data.len() < b.length() {
+        return Err(err(format!(
+            "holds {} bytes but declares byteLength {}",
+            data.len(),
+            b.length()
+        )));
+    }
+    Ok(data)
+}
+
+/// Appends the triangles of one primitive, transformed by `m`.
+fn add_primitive(
+    path: &Path,
+    at: &str,
+    prim: &gltf::Primitive<'_>,
+    buffers: &[Vec<u8>],
+    m: Mat4,
+    tris: &mut Vec<Triangle>,
+) -> Result<(), MeshError> {
+    let err = |msg: String| MeshError::new(path, None, format!("{at}: {msg}"));
+    if matches!(
+        prim.mode(),
+        Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip
+    ) {
+        return Ok(());
+    }
+    let pos = prim
+        .get(&gltf::Semantic::Positions)
+        .ok_or_else(|| err("no POSITION attribute".into()))?;
+    if pos.data_type() != DataType::F32 || pos.dimensions() != Dimensions::Vec3 {
+        return Err(err(format!(
+            "accessor {}: POSITION must be VEC3 of FLOAT",
+            pos.index()
+        )));
+    }
+    let positions: Vec<[f32; 3]> = elements(&pos, buffers, 12)
+        .map_err(&err)?
+        .map(|b| {
+            let f = |k: usize| f32::from_le_bytes([b[k], b[k + 1], b[k + 2], b[k + 3]]);
+            m.transform_point3(Vec3::new(f(0), f(4), f(8))).to_array()
+        })
+        .collect();
+    let indices: Vec<u32> = match prim.indices() {
+        None => (0..positions.len() as u32).collect(),
+        Some(acc) => {
+            let size = match (acc.data_type(), acc.dimensions()) {
+                (DataType::U8, Dimensions::Scalar) => 1,
+                (DataType::U16, Dimensions::Scalar) => 2,
+                (DataType::U32, Dimensions::Scalar) => 4,
+                _ => {
+                    return Err(err(format!(
+                        "accessor {}: indices must be SCALAR unsigned byte, short or int",
+                        acc.index()
+                    )))
+                }
+            };
+            let idx: Vec<u32> = elements(&acc, buffers, size)
+                .map_err(&err)?
+                .map(|b| match b {
+                    [x] => u32::from(*x),
+                    [x, y] => u32::from(u16::from_le_bytes([*x, *y])),
+                    _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+                })
+                .collect();
+            if let Some((k, &i)) = idx
+                .iter()
+                .enumerate()
+                .find(|(_, &i)| i as usize >= positions.len())
+            {
+                return Err(err(format!(
+                    "accessor {}: index {k} is {i}, out of range for {} vertices (accessor {})",
+                    acc.index(),
+                    positions.len(),
+                    pos.index()
+                )));
+            }
+            idx
+        }
+    };
+    let mut emit = |t: [u32; 3]| {
+        tris.push(Triangle {
+            v: t.map(|i| positions[i as usize]),
+        });
+    };
+    match prim.mode() {
+        Mode::TriangleFan => fan(&indices, emit),
+        Mode::TriangleStrip => {
+            for (k, w) in indices.windows(3).enumerate() {
+                // Every other triangle of a strip is reversed to keep the winding.
+                emit(if k % 2 == 0 {
+                    [w[0], w[1], w[2]]
+                } else {
+                    [w[1], w[0], w[2]]
+                });
+            }
+        }
+        _ => {
+            if !indices.len().is_multiple_of(3) {
+                return Err(err(format!(
+                    "{} indices (accessor {}) is not a whole number of triangles",
+                    indices.len(),
+                    prim.indices().map_or(pos.index(), |a| a.index())
+                )));
+            }
+            indices
+                .chunks_exact(3)
+                .for_each(|t| emit([t[0], t[1], t[2]]));
+        }
+    }
+    Ok(())
+}
+
+/// The `size`-byte elements of accessor `acc`, every range checked.
+fn elements<'b>(
+    acc: &Accessor<'_>,
+    buffers: &'b [Vec<u8>],
+    size: usize,
+) -> Result<impl Iterator<Item = &'b [u8]>, String> {
+    let a = acc.index();
+    if acc.sparse().is_some() {
+        return Err(format!("accessor {a}: sparse accessors are not supported"));
+    }
+    let view = acc
+        .view()
+        .ok_or_else(|| format!("accessor {a}: has no buffer view"))?;
+    let v = view.index();
+    let buffer = buffers
+        .get(view.buffer().index())
+        .ok_or_else(|| format!("buffer view {v}: no such buffer"))?;
+    let data = view
+        .offset()
+        .checked_add(view.length())
+        .and_then(|end| buffer.get(view.offset()..end))
+        .ok_or_else(|| {
+            format!(
+                "buffer view {v}: bytes {}..+{} run past the end of buffer {} ({} bytes)",
+                view.offset(),
+                view.length(),
+                view.buffer().index(),
+                buffer.len()
+            )
+        })?;
+    let stride = view.stride().unwrap_or(size);
+    if stride < size {
+        return Err(format!(
+            "buffer view {v}: byteStride {stride} is shorter than an element ({size} bytes)"
+        ));
+    }
+    let count = acc.count();
+    let needed = match count {
+        0 => Some(0),
+        n => (n - 1)
+            .checked_mul(stride)
+            .and_then(|x| x.checked_add(acc.offset()))
+            .and_then(|x| x.checked_add(size)),
+    };
+    if needed.is_none_or(|n| n > data.len()) {
+        return Err(format!(
+            "accessor {a}: {count} elements from byte {} need more than the {} bytes of buffer view {v}",
+            acc.offset(),
+            data.len()
+        ));
+    }
+    let start = acc.offset();
+    Ok((0..count).map(move |i| &data[start + i * stride..start + i * stride + size]))
+}

@@ -1,0 +1,359 @@
+//! Mesh loaders on small files written here: PLY (ASCII, binary little
+//! and big endian) and glTF (embedded, external buffer, GLB) give the
+//! triangles the same mesh gives as OBJ; malformed files (truncated, bad
+//! index, wrong counts) get errors naming the file and the place.
+
+use base64::Engine as _;
+use kdray_kernel::Triangle;
+use kdray_tools::mesh::{load, MeshError};
+use std::path::PathBuf;
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("kdray-loaders-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn write(name: &str, bytes: &[u8]) -> PathBuf {
+    let p = tmp(name);
+    std::fs::write(&p, bytes).unwrap();
+    p
+}
+
+/// The error loading `bytes` as `name`, as the user sees it.
+fn error(name: &str, bytes: &[u8]) -> String {
+    let p = write(name, bytes);
+    let e: MeshError = load(&p).expect_err("malformed file loaded");
+    let msg = e.to_string();
+    eprintln!("{msg}");
+    assert!(msg.contains(name), "the message names the file: {msg}");
+    msg
+}
+
+/// A unit square (quad 0 1 2 3) and a triangle (0 1 4) above it.
+const VERTS: [[f32; 3]; 5] = [
+    [0.0, 0.0, 0.0],
+    [1.0, 0.0, 0.0],
+    [1.0, 1.0, 0.0],
+    [0.0, 1.0, 0.0],
+    [0.0, 0.0, 1.0],
+];
+const FACES: [&[u32]; 2] = [&[0, 1, 2, 3], &[0, 1, 4]];
+
+fn expected() -> Vec<Triangle> {
+    let p = tmp("ref.obj");
+    let mut obj = String::new();
+    for v in VERTS {
+        obj += &format!("v {} {} {}\n", v[0], v[1], v[2]);
+    }
+    for f in FACES {
+        obj += "f";
+        for i in f {
+            obj += &format!(" {}", i + 1);
+        }
+        obj += "\n";
+    }
+    std::fs::write(&p, obj).unwrap();
+    let tris = load(&p).unwrap();
+    assert_eq!(tris.len(), 3);
+    tris
+}
+
+fn ply_ascii() -> String {
+    let mut s = String::from(
+        "ply\nformat ascii 1.0\ncomment made by hand\nelement vertex 5\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\nelement face 2\nproperty list uchar int vertex_indices\nproperty int flags\nelement edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n",
+    );
+    for v in VERTS {
+        s += &format!("{} {} {} 255\n", v[0], v[1], v[2]);
+    }
+    for f in FACES {
+        s += &format!("{}", f.len());
+        for i in f {
+            s += &format!(" {i}");
+        }
+        s += " 7\n";
+    }
+    s + "0 1\n"
+}
+
+/// Binary PLY: double (big) or float (little) vertices, uint or int indices.
+fn ply_binary(big: bool) -> Vec<u8> {
+    let (fmt, vty, ity) = if big {
+        ("binary_big_endian", "double", "uint")
+    } else {
+        ("binary_little_endian", "float", "int")
+    };
+    let mut b = format!(
+        "ply\r\nformat {fmt} 1.0\r\nelement vertex 5\r\nproperty {vty} x\r\nproperty {vty} y\r\nproperty {vty} z\r\nelement face 2\r\nproperty uchar flags\r\nproperty list uchar {ity} vertex_indices\r\nend_header\r\n"
+    )
+    .into_bytes();
+    let put = |b: &mut Vec<u8>, le: [u8; 8], n: usize| {
+        let mut x = le[..n].to_vec();
+        if big {
+            x.reverse();
+        }
+        b.extend(x);
+    };
+    for v in VERTS {
+        for c in v {
+            if big {
+                put(&mut b, f64::from(c).to_le_bytes(), 8);
+            } else {
+                let mut le = [0; 8];
+                le[..4].copy_from_slice(&c.to_le_bytes());
+                put(&mut b, le, 4);
+            }
+        }
+    }
+    for f in FACES {
+        b.push(9);
+        b.push(f.len() as u8);
+        for &i in f {
+            let mut le = [0; 8];
+            le[..4].copy_from_slice(&i.to_le_bytes());
+            put(&mut b, le, 4);
+        }
+    }
+    b
+}
+
+#[test]
+fn ply_ascii_and_binary_match_obj() {
+    let want = expected();
+    assert_eq!(load(&write("a.ply", ply_ascii().as_bytes())).unwrap(), want);
+    assert_eq!(load(&write("le.ply", &ply_binary(false))).unwrap(), want);
+    assert_eq!(load(&write("be.PLY", &ply_binary(true))).unwrap(), want);
+}
+
+#[test]
+fn ply_errors_name_the_place() {
+    let ascii = ply_ascii();
+    // Truncated: the last face line and the edge are gone.
+    let cut = &ascii[..ascii.find("3 0 1 4").unwrap()];
+    let e = error("cut.ply", cut.as_bytes());
+    assert!(e.contains("truncated") && e.contains("face 1"), "{e}");
+    // A bad index on line 22 (header 15 lines, vertices 16..20, faces 21..22).
+    let bad = ascii.replace("3 0 1 4 7", "3 0 1 5 7");
+    let e = error("badindex.ply", bad.as_bytes());
+    assert!(
+        e.contains(":22:") && e.contains("face 1") && e.contains("out of range"),
+        "{e}"
+    );
+    // Wrong counts: the header declares 4 vertices, so the fifth is read as a face.
+    let wrong = ascii.replace("element vertex 5", "element vertex 4");
+    let e = error("count.ply", wrong.as_bytes());
+    assert!(e.contains(":20:") && e.contains("face 0"), "{e}");
+    // Too few values on a vertex line.
+    let short = ascii.replace("1 1 0 255", "1 1");
+    let e = error("short.ply", short.as_bytes());
+    assert!(
+        e.contains(":18:") && e.contains("vertex 2") && e.contains("too few"),
+        "{e}"
+    );
+    // Binary, cut inside the last face.
+    let bin = ply_binary(false);
+    let e = error("cut-le.ply", &bin[..bin.len() - 3]);
+    assert!(e.contains("face 1") && e.contains("truncated"), "{e}");
+    // Binary with a bad index.
+    let mut bad = ply_binary(true);
+    let n = bad.len();
+    bad[n - 1] = 77;
+    let e = error("bad-be.ply", &bad);
+    assert!(
+        e.contains("face 1") && e.contains("77") && e.contains("out of range"),
+        "{e}"
+    );
+    // Header problems, with their line.
+    let e = error("magic.ply", b"plx\nformat ascii 1.0\nend_header\n");
+    assert!(e.contains(":1:") && e.contains("not a PLY"), "{e}");
+    let e = error(
+        "type.ply",
+        b"ply\nformat ascii 1.0\nelement vertex 1\nproperty quad x\nend_header\n",
+    );
+    assert!(e.contains(":4:") && e.contains("quad"), "{e}");
+    let e = error("noend.ply", b"ply\nformat ascii 1.0\nelement vertex 1\n");
+    assert!(e.contains("end_header"), "{e}");
+    let e = error(
+        "nox.ply",
+        b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float y\nend_header\n1\n",
+    );
+    assert!(e.contains(":3:") && e.contains("x, y or z"), "{e}");
+}
+
+/// The mesh's bytes for glTF: float positions, then u16 indices of the
+/// quad's two triangles and the third.
+fn gltf_bin() -> (Vec<u8>, usize) {
+    let mut b: Vec<u8> = VERTS
+        .iter()
+        .flatten()
+        .flat_map(|f| f.to_le_bytes())
+        .collect();
+    let pos_len = b.len();
+    for i in [0u16, 1, 2, 0, 2, 3, 0, 1, 4] {
+        b.extend(i.to_le_bytes());
+    }
+    (b, pos_len)
+}
+
+/// A glTF document: mesh 0 indexed, mesh 1 the same positions unindexed
+/// (one triangle strip), node 0 (translated, mesh 0) with child node 1
+/// (scaled, mesh 0), node 2 (mesh 1) outside the scene.
+fn gltf_json(uri: Option<&str>, byte_len: usize, pos_len: usize) -> String {
+    let uri = uri.map_or(String::new(), |u| format!("\"uri\": \"{u}\", "));
+    format!(
+        r#"{{
+  "asset": {{"version": "2.0"}},
+  "scene": 0,
+  "scenes": [{{"nodes": [0]}}],
+  "nodes": [
+    {{"mesh": 0, "translation": [10, 0, 0], "children": [1]}},
+    {{"mesh": 0, "scale": [2, 2, 2]}},
+    {{"mesh": 0}}
+  ],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1}}]}}],
+  "buffers": [{{{uri}"byteLength": {byte_len}}}],
+  "bufferViews": [
+    {{"buffer": 0, "byteOffset": 0, "byteLength": {pos_len}}},
+    {{"buffer": 0, "byteOffset": {pos_len}, "byteLength": 18}}
+  ],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 5, "type": "VEC3", "min": [0,0,0], "max": [1,1,1]}},
+    {{"bufferView": 1, "componentType": 5123, "count": 9, "type": "SCALAR"}}
+  ]
+}}"#
+    )
+}
+
+/// What the glTF scene holds: the mesh moved by 10 in x, then scaled by 2
+/// and moved by 10.
+fn gltf_expected() -> Vec<Triangle> {
+    let base = expected();
+    let moved = |s: f32| {
+        base.iter()
+            .map(|t| Triangle {
+                v: t.v.map(|p| [p[0] * s + 10.0, p[1] * s, p[2] * s]),
+            })
+            .collect::<Vec<_>>()
+    };
+    [moved(1.0), moved(2.0)].concat()
+}
+
+fn data_uri(bytes: &[u8]) -> String {
+    format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(bytes)
+    )
+}
+
+fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
+    let mut j = json.as_bytes().to_vec();
+    while !j.len().is_multiple_of(4) {
+        j.push(b' ');
+    }
+    let mut b = bin.to_vec();
+    while !b.len().is_multiple_of(4) {
+        b.push(0);
+    }
+    let total = 12 + 8 + j.len() + 8 + b.len();
+    let mut out = Vec::new();
+    out.extend(b"glTF");
+    out.extend(2u32.to_le_bytes());
+    out.extend((total as u32).to_le_bytes());
+    out.extend((j.len() as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(j);
+    out.extend((b.len() as u32).to_le_bytes());
+    out.extend(b"BIN\0");
+    out.extend(b);
+    out
+}
+
+#[test]
+fn gltf_embedded_external_and_glb_apply_node_transforms() {
+    let want = gltf_expected();
+    let (bin, pos_len) = gltf_bin();
+    let embedded = gltf_json(Some(&data_uri(&bin)), bin.len(), pos_len);
+    assert_eq!(
+        load(&write("embedded.gltf", embedded.as_bytes())).unwrap(),
+        want
+    );
+    write("mesh.bin", &bin);
+    let external = gltf_json(Some("mesh.bin"), bin.len(), pos_len);
+    assert_eq!(
+        load(&write("external.gltf", external.as_bytes())).unwrap(),
+        want
+    );
+    let json = gltf_json(None, bin.len(), pos_len);
+    assert_eq!(load(&write("binary.glb", &glb(&json, &bin))).unwrap(), want);
+}
+
+#[test]
+fn gltf_unindexed_and_strip_primitives() {
+    let (bin, pos_len) = gltf_bin();
+    let json = gltf_json(Some(&data_uri(&bin)), bin.len(), pos_len)
+        .replace(r#", "indices": 1}"#, r#", "mode": 5}"#)
+        .replace(
+            r#""translation": [10, 0, 0], "children": [1]"#,
+            r#""children": []"#,
+        );
+    let tris = load(&write("strip.gltf", json.as_bytes())).unwrap();
+    let v = VERTS;
+    assert_eq!(
+        tris,
+        vec![
+            Triangle {
+                v: [v[0], v[1], v[2]]
+            },
+            Triangle {
+                v: [v[2], v[1], v[3]]
+            },
+            Triangle {
+                v: [v[2], v[3], v[4]]
+            },
+        ]
+    );
+}
+
+#[test]
+fn gltf_errors_name_the_place() {
+    let (bin, pos_len) = gltf_bin();
+    let good = gltf_json(Some(&data_uri(&bin)), bin.len(), pos_len);
+    // Truncated JSON: serde's line and column.
+    let e = error("cut.gltf", &good.as_bytes()[..good.len() / 2]);
+    assert!(e.contains("malformed glTF") && e.contains("line"), "{e}");
+    // An index out of range, naming the accessor and the index's position.
+    let mut bad = bin.clone();
+    bad[pos_len + 16..pos_len + 18].copy_from_slice(&9u16.to_le_bytes());
+    let json = gltf_json(Some(&data_uri(&bad)), bad.len(), pos_len);
+    let e = error("badindex.gltf", json.as_bytes());
+    assert!(
+        e.contains("mesh 0 primitive 0") && e.contains("accessor 1") && e.contains("index 8 is 9"),
+        "{e}"
+    );
+    // Wrong counts: more positions than the buffer view holds.
+    let json = good.replace(r#""count": 5"#, r#""count": 6"#);
+    let e = error("count.gltf", json.as_bytes());
+    assert!(
+        e.contains("accessor 0") && e.contains("buffer view 0"),
+        "{e}"
+    );
+    // A buffer shorter than its byteLength.
+    let json = gltf_json(Some(&data_uri(&bin[..40])), bin.len(), pos_len);
+    let e = error("short.gltf", json.as_bytes());
+    assert!(e.contains("buffer 0") && e.contains("byteLength"), "{e}");
+    // A missing external buffer.
+    let json = gltf_json(Some("nowhere.bin"), bin.len(), pos_len);
+    let e = error("missing.gltf", json.as_bytes());
+    assert!(e.contains("buffer 0") && e.contains("nowhere.bin"), "{e}");
+    // A cycle in the node hierarchy.
+    let json = good.replace(
+        r#"{"mesh": 0, "scale": [2, 2, 2]}"#,
+        r#"{"mesh": 0, "children": [0]}"#,
+    );
+    let e = error("cycle.gltf", json.as_bytes());
+    assert!(e.contains("node 0 appears twice"), "{e}");
+    // A truncated GLB.
+    let glb = glb(&gltf_json(None, bin.len(), pos_len), &bin);
+    let e = error("cut.glb", &glb[..glb.len() - 20]);
+    assert!(e.contains("malformed glTF") || e.contains("buffer"), "{e}");
+}

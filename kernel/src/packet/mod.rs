@@ -286,34 +286,7 @@ impl<'a> TriangleTree<'a> {
 
     /// [`closest_hits`](TriangleTree::closest_hits) with a chosen width.
     pub fn closest_hits_with(&self, width: PacketWidth, rays: &[Ray], hits: &mut [Hit]) {
-        // The scalar path traces each ray alone (the packet entry points'
-        // `scalar-packets` rule).
-        let width = if cfg!(feature = "scalar-packets") {
-            PacketWidth::One
-        } else {
-            width
-        };
-        match width {
-            PacketWidth::One => {
-                for (h, r) in hits.iter_mut().zip(rays) {
-                    *h = self.closest_hit(r);
-                }
-            }
-            PacketWidth::Four => in_packets::<f32x4, _, 4>(
-                self,
-                rays,
-                hits,
-                |lr| self.closest_lanes(lr),
-                |r| self.closest_hit(r),
-            ),
-            PacketWidth::Eight => in_packets::<f32x8, _, 8>(
-                self,
-                rays,
-                hits,
-                |lr| self.closest_lanes(lr),
-                |r| self.closest_hit(r),
-            ),
-        }
+        self.slice_with::<ClosestHit>(width, rays, hits);
     }
 
     /// Whether each ray hits anything, in packets of 8 consecutive rays:
@@ -328,6 +301,11 @@ impl<'a> TriangleTree<'a> {
 
     /// [`any_hits`](TriangleTree::any_hits) with a chosen width.
     pub fn any_hits_with(&self, width: PacketWidth, rays: &[Ray], occluded: &mut [bool]) {
+        self.slice_with::<AnyHit>(width, rays, occluded);
+    }
+
+    /// The slice entry points at any width, for either query.
+    fn slice_with<Q: SliceQuery>(&self, width: PacketWidth, rays: &[Ray], out: &mut [Q::Out]) {
         // The scalar path traces each ray alone (the packet entry points'
         // `scalar-packets` rule).
         let width = if cfg!(feature = "scalar-packets") {
@@ -335,27 +313,67 @@ impl<'a> TriangleTree<'a> {
         } else {
             width
         };
+        let one = |r: &Ray| Q::one(self, r);
         match width {
             PacketWidth::One => {
-                for (o, r) in occluded.iter_mut().zip(rays) {
-                    *o = self.any_hit(r);
+                for (o, r) in out.iter_mut().zip(rays) {
+                    *o = one(r);
                 }
             }
-            PacketWidth::Four => in_packets::<f32x4, _, 4>(
-                self,
-                rays,
-                occluded,
-                |lr| lane_bools(self.any_lanes(lr)),
-                |r| self.any_hit(r),
-            ),
-            PacketWidth::Eight => in_packets::<f32x8, _, 8>(
-                self,
-                rays,
-                occluded,
-                |lr| lane_bools(self.any_lanes(lr)),
-                |r| self.any_hit(r),
-            ),
+            PacketWidth::Four => {
+                in_packets::<f32x4, _, 4>(self, rays, out, |lr| Q::lanes(self, lr), one);
+            }
+            PacketWidth::Eight => {
+                in_packets::<f32x8, _, 8>(self, rays, out, |lr| Q::lanes(self, lr), one);
+            }
         }
+    }
+}
+
+/// A query the slice entry points run, as a single ray and over lanes.
+trait SliceQuery {
+    /// One ray's answer.
+    type Out: Copy;
+    fn one(tree: &TriangleTree<'_>, ray: &Ray) -> Self::Out;
+    fn lanes<V: Lanes<N>, const N: usize>(
+        tree: &TriangleTree<'_>,
+        lr: &LaneRays<V, N>,
+    ) -> [Self::Out; N];
+}
+
+/// The closest hit.
+struct ClosestHit;
+
+impl SliceQuery for ClosestHit {
+    type Out = Hit;
+    #[inline(always)]
+    fn one(tree: &TriangleTree<'_>, ray: &Ray) -> Hit {
+        tree.closest_hit(ray)
+    }
+    #[inline(always)]
+    fn lanes<V: Lanes<N>, const N: usize>(
+        tree: &TriangleTree<'_>,
+        lr: &LaneRays<V, N>,
+    ) -> [Hit; N] {
+        tree.closest_lanes(lr)
+    }
+}
+
+/// Any hit (occlusion).
+struct AnyHit;
+
+impl SliceQuery for AnyHit {
+    type Out = bool;
+    #[inline(always)]
+    fn one(tree: &TriangleTree<'_>, ray: &Ray) -> bool {
+        tree.any_hit(ray)
+    }
+    #[inline(always)]
+    fn lanes<V: Lanes<N>, const N: usize>(
+        tree: &TriangleTree<'_>,
+        lr: &LaneRays<V, N>,
+    ) -> [bool; N] {
+        lane_bools(tree.any_lanes(lr))
     }
 }
 

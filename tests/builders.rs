@@ -9,23 +9,7 @@ use kdray::tools::blob::write_triangle_tree;
 use kdray::tools::build::{build, BuildError, BuildParams, BuilderKind};
 use std::path::Path;
 
-struct Rng(u64);
-
-impl Rng {
-    fn f(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((self.0 >> 40) as f32) / (1u64 << 24) as f32
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.f()
-    }
-    fn below(&mut self, n: usize) -> usize {
-        ((self.f() * n as f32) as usize).min(n - 1)
-    }
-}
+use kdray::tools::rng::Rng;
 
 fn tri(v: [[f32; 3]; 3]) -> Triangle {
     Triangle { v }
@@ -66,7 +50,7 @@ fn rays(rng: &mut Rng, n: usize, lo: f32, hi: f32) -> Vec<Ray> {
             // Axis-parallel: along split planes.
             0 => {
                 let mut d = [0.0; 3];
-                d[rng.below(3)] = if rng.f() < 0.5 { 1.0 } else { -1.0 };
+                d[rng.below(3)] = if rng.f32() < 0.5 { 1.0 } else { -1.0 };
                 d
             }
             // Parallel to one axis plane.
@@ -91,7 +75,7 @@ fn rays(rng: &mut Rng, n: usize, lo: f32, hi: f32) -> Vec<Ray> {
 
 #[test]
 fn random_soups_match_brute_force() {
-    let mut rng = Rng(11);
+    let mut rng = Rng::new(11);
     for (n, size) in [(50, 0.5f32), (1500, 1.0), (3000, 4.0)] {
         let tris: Vec<Triangle> = (0..n)
             .map(|_| {
@@ -125,7 +109,7 @@ fn adversarial(rng: &mut Rng) -> Vec<Triangle> {
             p[k][u] = base[0] + cu;
             p[k][v] = base[1] + cv;
         }
-        if rng.f() < 0.2 {
+        if rng.f32() < 0.2 {
             // Tilt one vertex off the plane.
             p[2][axis] += 1.0;
         }
@@ -142,7 +126,7 @@ fn adversarial(rng: &mut Rng) -> Vec<Triangle> {
 
 #[test]
 fn adversarial_scenes_match_brute_force() {
-    let mut rng = Rng(5);
+    let mut rng = Rng::new(5);
     let tris = adversarial(&mut rng);
     let r = rays(&mut rng, 6000, -0.5, 9.5);
     let hits = check_all("adversarial", &tris, &r);
@@ -151,7 +135,7 @@ fn adversarial_scenes_match_brute_force() {
 
 #[test]
 fn coplanar_axis_plane_scene_matches_brute_force() {
-    let mut rng = Rng(9);
+    let mut rng = Rng::new(9);
     let tris: Vec<Triangle> = (0..800)
         .map(|_| {
             let c = [rng.range(0.0, 10.0), rng.range(0.0, 10.0)];
@@ -215,7 +199,7 @@ fn degenerate_inputs_build_and_answer_exactly() {
             tri([[x, 0.0, 0.0], [x + s, s, 0.0], [x, s, s]])
         })
         .collect();
-    let mut rng = Rng(3);
+    let mut rng = Rng::new(3);
     let scenes: [(&str, Vec<Triangle>, f32); 6] = [
         ("empty", Vec::new(), 1.0),
         ("one", one, 1.0),
@@ -256,7 +240,7 @@ fn mesh(name: &str) -> Vec<Triangle> {
 
 #[test]
 fn real_meshes_match_brute_force() {
-    let mut rng = Rng(17);
+    let mut rng = Rng::new(17);
     for name in ["teapot.obj", "fandisk.obj", "cornell-box.obj"] {
         let tris = mesh(name);
         let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);

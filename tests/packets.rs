@@ -7,21 +7,13 @@ use kdray::kernel::{Hit, Packet, Packet4, Packet8, PacketWidth, Ray, Triangle, T
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::build::{build, BuildParams, BuilderKind};
 
-/// A deterministic LCG in [0, 1).
-struct Rng(u64);
+use kdray::tools::rng::Rng;
 
-impl Rng {
-    fn f(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((self.0 >> 40) as f32) / (1u64 << 24) as f32
-    }
-    fn pick<T: Copy>(&mut self, xs: &[T]) -> T {
-        xs[(self.f() * xs.len() as f32) as usize % xs.len()]
-    }
-}
+// The lane-vs-single-ray check the fuzz targets use, shared rather than copied.
+#[path = "../fuzz/src/checks.rs"]
+#[allow(dead_code, unreachable_pub)]
+mod checks;
+use checks::assert_lanes;
 
 /// `n` small triangles in a 10-unit cube; with `grid`, vertices snapped
 /// to a 1/2-unit grid so many rays meet edges, vertices and split planes.
@@ -29,10 +21,10 @@ fn scene(rng: &mut Rng, n: usize, grid: bool) -> Vec<Triangle> {
     let snap = |x: f32| if grid { (x * 2.0).round() / 2.0 } else { x };
     (0..n)
         .map(|_| {
-            let c = [rng.f() * 10.0, rng.f() * 10.0, rng.f() * 10.0];
+            let c = [rng.f32() * 10.0, rng.f32() * 10.0, rng.f32() * 10.0];
             Triangle {
                 v: std::array::from_fn(|_| {
-                    std::array::from_fn(|a| snap(c[a] + 2.0 * rng.f() - 1.0))
+                    std::array::from_fn(|a| snap(c[a] + 2.0 * rng.f32() - 1.0))
                 }),
             }
         })
@@ -48,9 +40,9 @@ fn blobs(tris: &[Triangle]) -> Vec<Blob> {
 
 fn random_ray(rng: &mut Rng) -> Ray {
     Ray {
-        origin: std::array::from_fn(|_| rng.f() * 12.0 - 1.0),
+        origin: std::array::from_fn(|_| rng.f32() * 12.0 - 1.0),
         tmin: 0.0,
-        dir: std::array::from_fn(|_| rng.f() - 0.5),
+        dir: std::array::from_fn(|_| rng.f32() - 0.5),
         tmax: f32::INFINITY,
     }
 }
@@ -71,7 +63,7 @@ fn adversarial_ray(rng: &mut Rng) -> Ray {
     ];
     let mut r = random_ray(rng);
     for a in 0..3 {
-        match (rng.f() * 10.0) as u32 {
+        match (rng.f32() * 10.0) as u32 {
             0 => r.origin[a] = rng.pick(&special),
             1 => r.dir[a] = rng.pick(&special),
             2..=3 => r.origin[a] = (r.origin[a] * 2.0).round() / 2.0,
@@ -82,23 +74,6 @@ fn adversarial_ray(rng: &mut Rng) -> Ray {
     r.tmin = rng.pick(&[0.0, -0.0, 0.0, 0.0, 1.0, -5.0, f32::NAN, f32::NEG_INFINITY]);
     r.tmax = rng.pick(&[f32::INFINITY, f32::INFINITY, 3.0, 0.0, f32::NAN, -1.0]);
     r
-}
-
-fn assert_lanes<const N: usize>(
-    tree: &TriangleTree,
-    p: &Packet<N>,
-    hits: [Hit; N],
-    any: [bool; N],
-) {
-    for l in 0..N {
-        let r = p.ray(l);
-        let (want, want_any) = match p.valid[l] {
-            true => (tree.closest_hit(&r), tree.any_hit(&r)),
-            false => (Hit::MISS, false),
-        };
-        assert_eq!(hits[l].bits(), want.bits(), "closest, lane {l}: {r:?}");
-        assert_eq!(any[l], want_any, "any, lane {l}: {r:?}");
-    }
 }
 
 /// Gives every lane lane 0's direction signs, keeping the magnitudes:
@@ -120,7 +95,7 @@ fn check_rays(tree: &TriangleTree, rays: &[Ray], rng: &mut Rng) -> usize {
         let mut p8 = Packet8::from_rays(chunk);
         // About one lane in eight inactive.
         for l in 0..8 {
-            if rng.f() < 0.12 {
+            if rng.f32() < 0.12 {
                 p8.valid[l] = false;
             }
         }
@@ -137,7 +112,7 @@ fn check_rays(tree: &TriangleTree, rays: &[Ray], rng: &mut Rng) -> usize {
 
 #[test]
 fn random_scenes_random_rays() {
-    let mut rng = Rng(1);
+    let mut rng = Rng::new(1);
     let mut hits = 0;
     for (n, grid) in [
         (1, false),
@@ -161,7 +136,7 @@ fn random_scenes_random_rays() {
 
 #[test]
 fn adversarial_rays() {
-    let mut rng = Rng(2);
+    let mut rng = Rng::new(2);
     for (n, grid) in [(50, true), (1000, true), (1000, false)] {
         let tris = scene(&mut rng, n, grid);
         for blob in blobs(&tris) {
@@ -176,7 +151,7 @@ fn adversarial_rays() {
 /// direction signs, except for tiles on the image's centre lines.
 #[test]
 fn camera_tiles_and_shadow_rays() {
-    let mut rng = Rng(3);
+    let mut rng = Rng::new(3);
     let tris = scene(&mut rng, 3000, true);
     let blob = &blobs(&tris)[0];
     let tree = blob.tree().unwrap();
@@ -206,7 +181,7 @@ fn camera_tiles_and_shadow_rays() {
 
 #[test]
 fn slice_entry_points_match_single_rays() {
-    let mut rng = Rng(4);
+    let mut rng = Rng::new(4);
     let tris = scene(&mut rng, 500, false);
     let blob = &blobs(&tris)[0];
     let tree = blob.tree().unwrap();

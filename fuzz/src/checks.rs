@@ -185,7 +185,9 @@ fn blob_of(tris: &[Triangle], kind: BuilderKind) -> Option<Blob> {
     Some(write_triangle_tree(&built, tris))
 }
 
-fn assert_lanes<const N: usize>(
+/// Asserts every lane of `p` equals its single ray, bit for bit (inactive
+/// lanes: a miss).
+pub fn assert_lanes<const N: usize>(
     tree: &TriangleTree,
     p: &Packet<N>,
     hits: [Hit; N],

@@ -31,6 +31,16 @@ impl Rng {
         lo + (hi - lo) * self.f32()
     }
 
+    /// An index uniform in `0..n` (`n > 0`; 0 for `n == 0`).
+    pub fn below(&mut self, n: usize) -> usize {
+        ((self.f32() * n as f32) as usize).min(n.saturating_sub(1))
+    }
+
+    /// One of `xs`, uniformly (`xs` non-empty).
+    pub fn pick<T: Copy>(&mut self, xs: &[T]) -> T {
+        xs[self.below(xs.len())]
+    }
+
     /// A direction uniform on the unit sphere.
     pub fn unit_vector(&mut self) -> [f32; 3] {
         let z = self.range(-1.0, 1.0);

@@ -270,6 +270,9 @@ struct Pending {
     hi: f32,
 }
 
+// The traversal stack the docs promise: MAX_DEPTH entries of 12 bytes.
+const _: () = assert!(core::mem::size_of::<Pending>() * MAX_DEPTH as usize == 768);
+
 /// What a leaf visitor tells the walk.
 enum Step {
     /// Keep going; skip cells starting after this `t` (the best hit plus slack).

@@ -8,9 +8,10 @@
 //! Masks are lane vectors with all bits set or clear, as `wide` returns
 //! them; control flow reads them as bitmasks (bit `l` = lane `l`).
 
+use crate::ray::Ray;
 use crate::traverse::Span;
 use core::ops::{Div, Mul};
-use wide::{f32x4, f32x8};
+use wide::{f32x4, f32x8, i32x4, i32x8};
 
 /// A vector of `N` `f32` lanes.
 pub(crate) trait Lanes<const N: usize>:
@@ -19,6 +20,14 @@ pub(crate) trait Lanes<const N: usize>:
     fn splat(x: f32) -> Self;
     fn from_array(a: [f32; N]) -> Self;
     fn to_array(self) -> [f32; N];
+    /// Lane `l`, read in place (NaN for `l >= N`).
+    fn lane(&self, l: usize) -> f32;
+    /// `|x|` lane by lane (the sign bit cleared, as `f32::abs`).
+    fn abs(self) -> Self;
+    /// `N` rays (zero rays past the end of `rays`) as the columns
+    /// `[origin x, y, z, tmin, dir x, y, z, tmax]`: a transpose in
+    /// registers, not `N` scalar stores reloaded as vectors.
+    fn columns(rays: &[Ray]) -> [Self; 8];
     /// Lanes where `self < rhs`, as a bitmask.
     fn lt(self, rhs: Self) -> u32;
     /// Lanes where `self > rhs`, as a bitmask.
@@ -38,16 +47,20 @@ pub(crate) trait Lanes<const N: usize>:
 }
 
 macro_rules! impl_lanes {
-    ($v:ty, $n:literal) => {
-        /// `f32::min` / `f32::max` lane by lane (a NaN in `rhs` keeps `self`).
+    ($v:ident, $i:ty, $n:literal, $columns:ident) => {
+        /// The scalar `Span`'s selects lane by lane: `rhs` where it is
+        /// smaller (larger), else `self`, so a NaN `rhs` keeps `self`. One
+        /// `vminps`/`vmaxps` with the operands swapped (it returns its
+        /// second operand unless the first is smaller/larger), not
+        /// `wide`'s NaN-fixing three-instruction `min`/`max`.
         impl Span for $v {
             #[inline(always)]
             fn min(self, rhs: Self) -> Self {
-                <$v>::min(self, rhs)
+                rhs.fast_min(self)
             }
             #[inline(always)]
             fn max(self, rhs: Self) -> Self {
-                <$v>::max(self, rhs)
+                rhs.fast_max(self)
             }
         }
 
@@ -63,6 +76,18 @@ macro_rules! impl_lanes {
             #[inline(always)]
             fn to_array(self) -> [f32; $n] {
                 <$v>::to_array(self)
+            }
+            #[inline(always)]
+            fn lane(&self, l: usize) -> f32 {
+                self.as_array().get(l).copied().unwrap_or(f32::NAN)
+            }
+            #[inline(always)]
+            fn abs(self) -> Self {
+                <$v>::abs(self)
+            }
+            #[inline(always)]
+            fn columns(rays: &[Ray]) -> [Self; 8] {
+                $columns(rays)
             }
             #[inline(always)]
             fn lt(self, rhs: Self) -> u32 {
@@ -94,21 +119,43 @@ macro_rules! impl_lanes {
             }
             #[inline(always)]
             fn mask(bits: u32) -> Self {
-                let all = f32::from_bits(u32::MAX);
-                <$v>::new(core::array::from_fn(|l| {
-                    if bits >> l & 1 == 1 {
-                        all
-                    } else {
-                        0.0
-                    }
-                }))
+                // Lane l tests bit l of a splat: three instructions.
+                let bit = <$i>::new(core::array::from_fn(|l| 1 << l));
+                let bits = <$i>::splat(bits as i32) & bit;
+                bytemuck::cast(bits.simd_eq(bit))
             }
         }
     };
 }
 
-impl_lanes!(f32x4, 4);
-impl_lanes!(f32x8, 8);
+/// Ray `l` of `rays` as its 8 floats (zeros past the end).
+#[inline(always)]
+fn ray_floats(rays: &[Ray], l: usize) -> [f32; 8] {
+    rays.get(l).map_or([0.0; 8], |r| bytemuck::cast(*r))
+}
+
+/// [`Lanes::columns`] for 8 lanes: a ray is 8 floats, so an 8x8 transpose.
+#[inline(always)]
+fn columns8(rays: &[Ray]) -> [f32x8; 8] {
+    f32x8::transpose(core::array::from_fn(|l| f32x8::new(ray_floats(rays, l))))
+}
+
+/// [`Lanes::columns`] for 4 lanes: two 4x4 transposes (origin and tmin,
+/// dir and tmax).
+#[inline(always)]
+fn columns4(rays: &[Ray]) -> [f32x4; 8] {
+    let half = |h: usize| {
+        f32x4::transpose(core::array::from_fn(|l| {
+            let [a, b]: [[f32; 4]; 2] = bytemuck::cast(ray_floats(rays, l));
+            f32x4::new(if h == 0 { a } else { b })
+        }))
+    };
+    let ([ox, oy, oz, tmin], [dx, dy, dz, tmax]) = (half(0), half(1));
+    [ox, oy, oz, tmin, dx, dy, dz, tmax]
+}
+
+impl_lanes!(f32x4, i32x4, 4, columns4);
+impl_lanes!(f32x8, i32x8, 8, columns8);
 
 #[cfg(test)]
 mod tests {

@@ -395,7 +395,7 @@ fn in_packets<V: Lanes<N>, T: Copy, const N: usize>(
             }
             continue;
         }
-        let answers = trace(&LaneRays::from_fn(|l| rs.get(l).copied(), &tree.bounds));
+        let answers = trace(&LaneRays::from_rays(rs, &tree.bounds));
         for (o, a) in os.iter_mut().zip(answers).take(rs.len()) {
             *o = a;
         }

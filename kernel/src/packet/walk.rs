@@ -97,7 +97,8 @@ impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for ClosestLanes<'_, 'a, V, N
 
     #[inline(always)]
     fn single(&mut self, l: usize, start: (u32, f32, f32)) -> Option<(V, u32)> {
-        if let (Some(Some(one)), Some(best)) = (self.lr.single.get(l), self.best.get_mut(l)) {
+        if let Some(best) = self.best.get_mut(l) {
+            let one = self.lr.single(l);
             self.tree
                 .closest_from(&one.sr, &one.cr, one.tmin, best, start, &mut ());
             self.best_t = self.best_ts();
@@ -140,13 +141,12 @@ impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for AnyLanes<'_, 'a, V, N> {
 
     #[inline(always)]
     fn single(&mut self, l: usize, start: (u32, f32, f32)) -> Option<(V, u32)> {
-        if let Some(Some(one)) = self.lr.single.get(l) {
-            if self
-                .tree
-                .any_from(&one.sr, &one.cr, (one.tmin, one.tmax), start, &mut ())
-            {
-                self.occluded |= 1 << l;
-            }
+        let one = self.lr.single(l);
+        if self
+            .tree
+            .any_from(&one.sr, &one.cr, (one.tmin, one.tmax), start, &mut ())
+        {
+            self.occluded |= 1 << l;
         }
         self.state()
     }

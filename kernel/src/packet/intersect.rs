@@ -7,33 +7,20 @@
 
 use super::lane_rays::LaneRays;
 use super::lanes::Lanes;
-use crate::triangle::{edge_functions_f64, Triangle, TriangleHit};
+use crate::triangle::{edge_functions_f64, Triangle};
 
 /// The lanes a triangle hits, with the unreduced hit of each lane.
 pub(crate) struct LaneHits<V> {
     /// Lanes hit within `[tmin, tmax]` (bitmask).
     pub(crate) hit: u32,
-    t: V,
-    v: V,
-    w: V,
-    det: V,
-}
-
-impl<V> LaneHits<V> {
-    /// The scalar hit record of lane `l` (meaningful where `hit` has it).
-    #[inline]
-    pub(crate) fn lane<const N: usize>(&self, l: usize) -> TriangleHit
-    where
-        V: Lanes<N>,
-    {
-        let at = |x: V| x.to_array().get(l).copied().unwrap_or(f32::NAN);
-        TriangleHit {
-            t: at(self.t),
-            v: at(self.v),
-            w: at(self.w),
-            det: at(self.det),
-        }
-    }
+    /// Each lane's `t`.
+    pub(crate) t: V,
+    /// Each lane's edge function weighting vertex 1.
+    pub(crate) v: V,
+    /// Each lane's edge function weighting vertex 2.
+    pub(crate) w: V,
+    /// Each lane's determinant (the sum of the three edge functions).
+    pub(crate) det: V,
 }
 
 impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {

@@ -27,9 +27,10 @@
 
 use super::lane_rays::LaneRays;
 use super::lanes::Lanes;
-use crate::ray::Hit;
+use crate::ray::{Hit, MISS};
 use crate::traverse::{Closest, LeafIter};
 use crate::tree::{TriangleTree, MAX_DEPTH};
+use crate::triangle::TriangleHit;
 
 /// How many lanes left in a cell make the packet finish them one by one
 /// as single rays (measured on the bunny, `kdray trace --packet 8` on
@@ -59,20 +60,55 @@ trait Visit<'a, V> {
     fn single(&mut self, l: usize, start: (u32, f32, f32)) -> Option<(V, u32)>;
 }
 
-/// The closest-hit search: one [`Closest`] per lane.
+/// The closest-hit search: each lane's [`Closest`] kept in lanes (the
+/// best `t` and the winning hit's edge functions), so a leaf's hits update
+/// all lanes with a few selects; a lane finished as a single ray keeps its
+/// scalar `Closest` until a packet hit beats it.
 struct ClosestLanes<'t, 'a, V, const N: usize> {
     tree: &'t TriangleTree<'a>,
     lr: &'t LaneRays<V, N>,
-    best: [Closest; N],
-    best_t: V,
+    /// Each lane's best `t` (its `tmax` before any hit).
+    t: V,
+    /// The best hit's `v`, `w` and `det` ([`TriangleHit`]).
+    vwd: [V; 3],
+    /// The best triangle of each lane ([`MISS`] before any hit).
+    prim: [u32; N],
+    /// Lanes with a hit.
+    found: u32,
+    /// Lanes whose best is `alone[l]`, from a single-ray finish.
+    alone_bits: u32,
+    alone: [Closest; N],
 }
 
 impl<V: Lanes<N>, const N: usize> ClosestLanes<'_, '_, V, N> {
-    /// Each lane's best `t`, read field by field (not a copy of every
-    /// record).
+    /// Lane `l`'s search as the single ray holds it.
+    #[inline]
+    fn closest(&self, l: usize) -> Closest {
+        if self.alone_bits >> l & 1 == 1 {
+            if let Some(c) = self.alone.get(l) {
+                return *c;
+            }
+        }
+        let t = self.t.lane(l);
+        let mut c = Closest::new(t);
+        if let (true, Some(&prim)) = (self.found >> l & 1 == 1, self.prim.get(l)) {
+            let [v, w, det] = self.vwd.each_ref().map(|x| x.lane(l));
+            // At equal t a found triangle (index below MISS) is kept.
+            c.keep(TriangleHit { t, v, w, det }, prim);
+        }
+        c
+    }
+
+    /// Each lane's answer.
     #[inline(always)]
-    fn best_ts(&self) -> V {
-        V::from_array(core::array::from_fn(|l| self.best[l].t))
+    fn hits(&self) -> [Hit; N] {
+        core::array::from_fn(|l| {
+            if self.lr.active >> l & 1 == 1 {
+                self.closest(l).hit()
+            } else {
+                Hit::MISS
+            }
+        })
     }
 }
 
@@ -83,27 +119,53 @@ impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for ClosestLanes<'_, 'a, V, N
             let Some(tri) = self.tree.triangles.get(p as usize) else {
                 continue;
             };
-            if let Some(h) = self.lr.intersect(tri, lanes, self.best_t) {
-                for (l, b) in self.best.iter_mut().enumerate() {
-                    if h.hit >> l & 1 == 1 {
-                        b.keep(h.lane(l), p);
-                    }
+            let Some(h) = self.lr.intersect(tri, lanes, self.t) else {
+                continue;
+            };
+            // `Closest::keep` in lanes: the hit lies in [tmin, best t], so
+            // it wins when nearer, or at equal t with a lower index.
+            let mut wins = h.hit & h.t.lt(self.t);
+            let mut ties = h.hit & !wins;
+            while ties != 0 {
+                let l = ties.trailing_zeros() as usize;
+                ties &= ties - 1;
+                if self.prim.get(l).is_some_and(|&b| p < b) {
+                    wins |= 1 << l;
                 }
-                self.best_t = self.best_ts();
+            }
+            if wins == 0 {
+                continue;
+            }
+            let m = V::mask(wins);
+            self.t = V::select(m, h.t, self.t);
+            self.vwd = [(h.v, self.vwd[0]), (h.w, self.vwd[1]), (h.det, self.vwd[2])]
+                .map(|(new, old)| V::select(m, new, old));
+            (self.found, self.alone_bits) = (self.found | wins, self.alone_bits & !wins);
+            let mut w = wins;
+            while w != 0 {
+                if let Some(b) = self.prim.get_mut(w.trailing_zeros() as usize) {
+                    *b = p;
+                }
+                w &= w - 1;
             }
         }
-        Some((self.best_t, self.lr.active))
+        Some((self.t, self.lr.active))
     }
 
     #[inline(always)]
     fn single(&mut self, l: usize, start: (u32, f32, f32)) -> Option<(V, u32)> {
-        if let Some(best) = self.best.get_mut(l) {
-            let one = self.lr.single(l);
-            self.tree
-                .closest_from(&one.sr, &one.cr, one.tmin, best, start, &mut ());
-            self.best_t = self.best_ts();
+        let mut best = self.closest(l);
+        let one = self.lr.single(l);
+        self.tree
+            .closest_from(&one.sr, &one.cr, one.tmin, &mut best, start, &mut ());
+        if let (Some(a), Some(b)) = (self.alone.get_mut(l), self.prim.get_mut(l)) {
+            (*a, *b) = (best, best.prim);
+            self.t = V::select(V::mask(1 << l), V::splat(best.t), self.t);
+            self.alone_bits |= 1 << l;
+            // Equal t then compares against this lane's prim.
+            self.found |= u32::from(best.prim != MISS) << l;
         }
-        Some((self.best_t, self.lr.active))
+        Some((self.t, self.lr.active))
     }
 }
 
@@ -160,21 +222,18 @@ impl<'a> TriangleTree<'a> {
         &self,
         lr: &LaneRays<V, N>,
     ) -> [Hit; N] {
-        let tmax = lr.tmax.to_array();
         let mut visit = ClosestLanes {
             tree: self,
             lr,
-            best: core::array::from_fn(|l| Closest::new(tmax[l])),
-            best_t: lr.tmax,
+            t: lr.tmax,
+            vwd: [lr.tmax; 3],
+            prim: [MISS; N],
+            found: 0,
+            alone_bits: 0,
+            alone: [Closest::new(0.0); N],
         };
         self.walk_lanes(lr, &mut visit);
-        core::array::from_fn(|l| {
-            if lr.active >> l & 1 == 1 {
-                visit.best[l].hit()
-            } else {
-                Hit::MISS
-            }
-        })
+        visit.hits()
     }
 
     /// Bit `l` set when lane `l` of `lr` hits any triangle.

@@ -35,6 +35,7 @@ use crate::tree::TriangleTree;
 use glam::Vec3;
 use lane_rays::LaneRays;
 use lanes::Lanes;
+use walk::LaneStack;
 use wide::{f32x4, f32x8};
 
 /// `N` rays in structure-of-arrays layout, with a valid flag per lane.
@@ -194,7 +195,8 @@ impl<'a> TriangleTree<'a> {
         if cfg!(feature = "scalar-packets") {
             return self.closest_hit_lanes(packet);
         }
-        self.closest_lanes(&LaneRays::<f32x4, 4>::new(packet, &self.bounds))
+        let lr = LaneRays::<f32x4, 4>::new(packet, &self.bounds);
+        self.closest_lanes(&lr, &mut LaneStack::new(lr.s2))
     }
 
     /// [`closest_hit4`](TriangleTree::closest_hit4) for 8 lanes.
@@ -207,7 +209,8 @@ impl<'a> TriangleTree<'a> {
         if cfg!(feature = "scalar-packets") {
             return self.closest_hit_lanes(packet);
         }
-        self.closest_lanes(&LaneRays::<f32x8, 8>::new(packet, &self.bounds))
+        let lr = LaneRays::<f32x8, 8>::new(packet, &self.bounds);
+        self.closest_lanes(&lr, &mut LaneStack::new(lr.s2))
     }
 
     /// Whether each lane of `packet` hits any triangle, exactly as
@@ -222,7 +225,8 @@ impl<'a> TriangleTree<'a> {
         if cfg!(feature = "scalar-packets") {
             return self.any_hit_lanes(packet);
         }
-        lane_bools(self.any_lanes(&LaneRays::<f32x4, 4>::new(packet, &self.bounds)))
+        let lr = LaneRays::<f32x4, 4>::new(packet, &self.bounds);
+        lane_bools(self.any_lanes(&lr, &mut LaneStack::new(lr.s2)))
     }
 
     /// [`any_hit4`](TriangleTree::any_hit4) for 8 lanes.
@@ -235,7 +239,8 @@ impl<'a> TriangleTree<'a> {
         if cfg!(feature = "scalar-packets") {
             return self.any_hit_lanes(packet);
         }
-        lane_bools(self.any_lanes(&LaneRays::<f32x8, 8>::new(packet, &self.bounds)))
+        let lr = LaneRays::<f32x8, 8>::new(packet, &self.bounds);
+        lane_bools(self.any_lanes(&lr, &mut LaneStack::new(lr.s2)))
     }
 
     /// The scalar packet path: each active lane traced as a single ray.
@@ -321,10 +326,10 @@ impl<'a> TriangleTree<'a> {
                 }
             }
             PacketWidth::Four => {
-                in_packets::<f32x4, _, 4>(self, rays, out, |lr| Q::lanes(self, lr), one);
+                in_packets::<f32x4, _, 4>(self, rays, out, |lr, st| Q::lanes(self, lr, st), one);
             }
             PacketWidth::Eight => {
-                in_packets::<f32x8, _, 8>(self, rays, out, |lr| Q::lanes(self, lr), one);
+                in_packets::<f32x8, _, 8>(self, rays, out, |lr, st| Q::lanes(self, lr, st), one);
             }
         }
     }
@@ -338,6 +343,7 @@ trait SliceQuery {
     fn lanes<V: Lanes<N>, const N: usize>(
         tree: &TriangleTree<'_>,
         lr: &LaneRays<V, N>,
+        stack: &mut LaneStack<V>,
     ) -> [Self::Out; N];
 }
 
@@ -354,8 +360,9 @@ impl SliceQuery for ClosestHit {
     fn lanes<V: Lanes<N>, const N: usize>(
         tree: &TriangleTree<'_>,
         lr: &LaneRays<V, N>,
+        stack: &mut LaneStack<V>,
     ) -> [Hit; N] {
-        tree.closest_lanes(lr)
+        tree.closest_lanes(lr, stack)
     }
 }
 
@@ -372,8 +379,9 @@ impl SliceQuery for AnyHit {
     fn lanes<V: Lanes<N>, const N: usize>(
         tree: &TriangleTree<'_>,
         lr: &LaneRays<V, N>,
+        stack: &mut LaneStack<V>,
     ) -> [bool; N] {
-        lane_bools(tree.any_lanes(lr))
+        lane_bools(tree.any_lanes(lr, stack))
     }
 }
 
@@ -385,9 +393,10 @@ fn in_packets<V: Lanes<N>, T: Copy, const N: usize>(
     tree: &TriangleTree<'_>,
     rays: &[Ray],
     out: &mut [T],
-    trace: impl Fn(&LaneRays<V, N>) -> [T; N],
+    trace: impl Fn(&LaneRays<V, N>, &mut LaneStack<V>) -> [T; N],
     one: impl Fn(&Ray) -> T,
 ) {
+    let mut stack = LaneStack::new(V::splat(0.0));
     for (rs, os) in rays.chunks(N).zip(out.chunks_mut(N)) {
         if !signs_agree(rs.iter().map(|r| &r.dir)) {
             for (o, r) in os.iter_mut().zip(rs) {
@@ -395,7 +404,7 @@ fn in_packets<V: Lanes<N>, T: Copy, const N: usize>(
             }
             continue;
         }
-        let answers = trace(&LaneRays::from_rays(rs, &tree.bounds));
+        let answers = trace(&LaneRays::from_rays(rs, &tree.bounds), &mut stack);
         for (o, a) in os.iter_mut().zip(answers).take(rs.len()) {
             *o = a;
         }

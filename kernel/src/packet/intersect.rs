@@ -26,11 +26,14 @@ pub(crate) struct LaneHits<V> {
 impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
     /// Vertex `p` relative to each lane's origin, sheared so the lane's
     /// ray runs along +z: `(q[kx] - sx q[kz], q[ky] - sy q[kz], q[kz])`.
+    /// `p` is read in place (a copy indexed by the permuted axes would be
+    /// spilled and reloaded across its stores).
     #[inline(always)]
-    fn shear_vertex(&self, p: [f32; 3]) -> (V, V, V) {
+    fn shear_vertex(&self, p: &[f32; 3]) -> (V, V, V) {
         // p[k[j]] per lane; the subtraction is then the scalar q[k[j]].
         let pk = |j: usize| match self.k_uniform {
-            Some(k) => V::splat(p[k[j]]),
+            // k[j] < 3 (`LaneRays::k`): the fallback is never taken.
+            Some(k) => V::splat(p.get(k[j]).copied().unwrap_or(f32::NAN)),
             None => {
                 let [is0, is1] = self.k_is[j];
                 let [x, y, z] = p.map(V::splat);
@@ -48,9 +51,9 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
     #[inline(always)]
     pub(crate) fn intersect(&self, tri: &Triangle, live: u32, tmax: V) -> Option<LaneHits<V>> {
         let sz = self.shear[2];
-        let (ax, ay, az) = self.shear_vertex(tri.v[0]);
-        let (bx, by, bz) = self.shear_vertex(tri.v[1]);
-        let (cx, cy, cz) = self.shear_vertex(tri.v[2]);
+        let (ax, ay, az) = self.shear_vertex(&tri.v[0]);
+        let (bx, by, bz) = self.shear_vertex(&tri.v[1]);
+        let (cx, cy, cz) = self.shear_vertex(&tri.v[2]);
         // 2-D edge functions: u weighs vertex 0, v vertex 1, w vertex 2.
         let mut u = cx * by - cy * bx;
         let mut v = ax * cy - ay * cx;

@@ -120,12 +120,26 @@ impl<V: Lanes<N>, const N: usize> ClosestLanes<'_, '_, V, N> {
         c
     }
 
-    /// Each lane's answer.
+    /// Each lane's answer: `TriangleHit::to_hit` in lanes (its two
+    /// divisions for all lanes at once), or the lone lane's own `Closest`.
     #[inline(always)]
     fn hits(&self) -> [Hit; N] {
+        let [v, w, det] = self.vwd;
+        let (u, v) = (v / det, w / det);
+        let (alone, found) = (
+            self.lr.active & self.alone_bits,
+            self.lr.active & self.found,
+        );
         core::array::from_fn(|l| {
-            if self.lr.active >> l & 1 == 1 {
+            if alone >> l & 1 == 1 {
                 self.closest(l).hit()
+            } else if found >> l & 1 == 1 {
+                Hit {
+                    t: self.t.lane(l),
+                    prim: self.prim.get(l).copied().unwrap_or(MISS),
+                    u: u.lane(l),
+                    v: v.lane(l),
+                }
             } else {
                 Hit::MISS
             }

@@ -58,23 +58,34 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
         let mut u = cx * by - cy * bx;
         let mut v = ax * cy - ay * cx;
         let mut w = bx * ay - by * ax;
+        // Masks are combined in lanes: one bitmask per decision.
         let zero = V::splat(0.0);
-        let exact_zero = (u.eq(zero) | v.eq(zero) | w.eq(zero)) & live;
+        let exact_zero = (u.eq_mask(zero) | v.eq_mask(zero) | w.eq_mask(zero)).bits() & live;
         if exact_zero != 0 {
             [u, v, w] = f64_fixup(exact_zero, [u, v, w], [ax, ay, bx, by, cx, cy]);
         }
         // Edge functions of both signs: the ray passes outside.
-        let neg = u.lt(zero) | v.lt(zero) | w.lt(zero);
-        let pos = u.gt(zero) | v.gt(zero) | w.gt(zero);
-        let mut hit = live & !(neg & pos);
+        let neg = u.lt_mask(zero) | v.lt_mask(zero) | w.lt_mask(zero);
+        let pos = u.gt_mask(zero) | v.gt_mask(zero) | w.gt_mask(zero);
+        let mut hit = live & !(neg & pos).bits();
         if hit == 0 {
             return None;
         }
         let det = u + v + w;
         let t_scaled = u * (sz * az) + v * (sz * bz) + w * (sz * cz);
         let t = t_scaled / det;
-        // As the scalar test: a zero or overflowed determinant is no hit.
-        hit &= !det.eq(zero) & det.finite() & t.ge(self.tmin) & t.le(tmax) & t.finite();
+        // As the scalar test: a zero or overflowed determinant is no hit,
+        // nor is a t outside [tmin, tmax] or not finite. `0 < |x| < inf`
+        // is `x != 0 && x.is_finite()`, and `|x| < inf` is
+        // `x.is_finite()` (NaN fails every comparison).
+        let inf = V::splat(f32::INFINITY);
+        let (det_abs, t_abs) = (det.abs(), t.abs());
+        let ok = det_abs.gt_mask(zero)
+            & det_abs.lt_mask(inf)
+            & t.ge_mask(self.tmin)
+            & t.le_mask(tmax)
+            & t_abs.lt_mask(inf);
+        hit &= ok.bits();
         (hit != 0).then_some(LaneHits { hit, t, v, w, det })
     }
 }

@@ -10,12 +10,12 @@
 
 use crate::ray::Ray;
 use crate::traverse::Span;
-use core::ops::{Div, Mul};
+use core::ops::{BitAnd, BitOr, Div, Mul};
 use wide::{f32x4, f32x8, i32x4, i32x8};
 
 /// A vector of `N` `f32` lanes.
 pub(crate) trait Lanes<const N: usize>:
-    Span + Mul<Output = Self> + Div<Output = Self>
+    Span + Mul<Output = Self> + Div<Output = Self> + BitAnd<Output = Self> + BitOr<Output = Self>
 {
     fn splat(x: f32) -> Self;
     fn from_array(a: [f32; N]) -> Self;
@@ -40,6 +40,19 @@ pub(crate) trait Lanes<const N: usize>:
     fn eq(self, rhs: Self) -> u32;
     /// Lanes whose value is finite, as a bitmask.
     fn finite(self) -> u32;
+    /// Lanes where `self < rhs`, as a lane mask (combine masks with `&`
+    /// and `|`, then take one [`Lanes::bits`]).
+    fn lt_mask(self, rhs: Self) -> Self;
+    /// Lanes where `self > rhs`, as a lane mask.
+    fn gt_mask(self, rhs: Self) -> Self;
+    /// Lanes where `self <= rhs`, as a lane mask.
+    fn le_mask(self, rhs: Self) -> Self;
+    /// Lanes where `self >= rhs`, as a lane mask.
+    fn ge_mask(self, rhs: Self) -> Self;
+    /// Lanes where `self == rhs`, as a lane mask.
+    fn eq_mask(self, rhs: Self) -> Self;
+    /// The bitmask of a lane mask.
+    fn bits(self) -> u32;
     /// `if_true` where `mask` (a lane mask from [`Lanes::mask`]) is set.
     fn select(mask: Self, if_true: Self, if_false: Self) -> Self;
     /// The lane mask of a bitmask.
@@ -112,6 +125,30 @@ macro_rules! impl_lanes {
             #[inline(always)]
             fn finite(self) -> u32 {
                 self.is_finite().to_bitmask()
+            }
+            #[inline(always)]
+            fn lt_mask(self, rhs: Self) -> Self {
+                self.simd_lt(rhs)
+            }
+            #[inline(always)]
+            fn gt_mask(self, rhs: Self) -> Self {
+                self.simd_gt(rhs)
+            }
+            #[inline(always)]
+            fn le_mask(self, rhs: Self) -> Self {
+                self.simd_le(rhs)
+            }
+            #[inline(always)]
+            fn ge_mask(self, rhs: Self) -> Self {
+                self.simd_ge(rhs)
+            }
+            #[inline(always)]
+            fn eq_mask(self, rhs: Self) -> Self {
+                self.simd_eq(rhs)
+            }
+            #[inline(always)]
+            fn bits(self) -> u32 {
+                self.to_bitmask()
             }
             #[inline(always)]
             fn select(mask: Self, if_true: Self, if_false: Self) -> Self {
@@ -196,6 +233,11 @@ mod tests {
             assert_eq!(va.ge(vb), bits(|x, y| x >= y));
             assert_eq!(va.eq(vb), bits(|x, y| x == y));
             assert_eq!(vb.finite(), bits(|_, y| y.is_finite()));
+            assert_eq!(va.lt_mask(vb).bits(), va.lt(vb));
+            assert_eq!(va.gt_mask(vb).bits(), va.gt(vb));
+            assert_eq!(va.le_mask(vb).bits(), va.le(vb));
+            assert_eq!(va.ge_mask(vb).bits(), va.ge(vb));
+            assert_eq!(va.eq_mask(vb).bits(), va.eq(vb));
             if !a.is_nan() {
                 // The walk only takes min/max with a non-NaN left operand;
                 // signed zeros may come out either way in both, so compare

@@ -335,22 +335,23 @@ impl<'a> TriangleTree<'a> {
                 let first = node.upper() + above_first;
                 let second = node.upper() + 1 - above_first;
                 let far_lo = lo.far_lo(t_split, s2);
+                // Push the far child unconditionally and keep it only when
+                // the packet visits both children (the single ray's way:
+                // one branch less per node).
+                let Some(slot) = stack.get_mut(sp) else {
+                    return; // deeper than MAX_DEPTH: only an unchecked, invalid blob
+                };
+                *slot = Pending {
+                    node: second,
+                    lanes: far,
+                    lo: far_lo,
+                    hi,
+                };
                 if near == 0 {
                     (node_idx, lanes, lo) = (second, far, far_lo);
                     continue;
                 }
-                if far != 0 {
-                    let Some(slot) = stack.get_mut(sp) else {
-                        return; // deeper than MAX_DEPTH: only an unchecked, invalid blob
-                    };
-                    *slot = Pending {
-                        node: second,
-                        lanes: far,
-                        lo: far_lo,
-                        hi,
-                    };
-                    sp += 1;
-                }
+                sp += usize::from(far != 0);
                 (node_idx, lanes, hi) = (first, near, hi.near_hi(t_split, s2));
                 continue;
             } else {

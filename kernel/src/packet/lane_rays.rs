@@ -127,37 +127,37 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
     /// `None` otherwise.
     #[inline(always)]
     fn in_lanes(c: &Columns<V>, bounds: &Bounds) -> Option<Self> {
-        let (zero, one) = (V::splat(0.0), V::splat(1.0));
+        let (zero, one, inf) = (V::splat(0.0), V::splat(1.0), V::splat(f32::INFINITY));
         let inv = c.dir.map(|d| one / d);
-        let mut plain = c.tmin.le(c.tmax);
+        // `|x| < inf` is `x.is_finite()`; a finite `1/d` excludes zero and
+        // subnormal components.
+        let finite = |x: V| x.abs().lt_mask(inf);
+        let mut plain = c.tmin.le_mask(c.tmax);
         let (mut enter, mut exit) = (V::splat(f32::NEG_INFINITY), V::splat(f32::INFINITY));
         let mut zmax_of = [zero; 3];
         for a in 0..3 {
-            plain &= c.org[a].finite() & c.dir[a].finite() & inv[a].finite();
+            plain = plain & finite(c.org[a]) & finite(c.dir[a]) & finite(inv[a]);
             // The slab test, as `CellRay::new`.
             let to_min = V::splat(bounds.min[a]) - c.org[a];
             let to_max = V::splat(bounds.max[a]) - c.org[a];
             let ta = to_min * inv[a];
             let tb = to_max * inv[a];
-            plain &= ta.eq(ta) & tb.eq(tb);
+            plain = plain & ta.eq_mask(ta) & tb.eq_mask(tb);
             enter = enter.max(ta.min(tb));
             exit = exit.min(ta.max(tb));
             zmax_of[a] = to_min.abs().max(to_max.abs()) * inv[a].abs();
         }
-        if c.valid & !plain != 0 {
+        if c.valid & !plain.bits() != 0 {
             return None;
         }
         // The dominant axis kz (ties to the lower axis), kx and ky after
         // it, swapped when dir[kz] < 0: `ShearedRay::new`.
         let d = c.dir.map(V::abs);
-        let kz0 = d[0].ge(d[1]) & d[0].ge(d[2]);
-        let kz1 = !kz0 & d[1].ge(d[2]);
+        let (is0, is1_else_2) = (d[0].ge_mask(d[1]) & d[0].ge_mask(d[2]), d[1].ge_mask(d[2]));
+        let kz0 = is0.bits();
+        let kz1 = !kz0 & is1_else_2.bits();
         let kz2 = !kz0 & !kz1;
-        let dkz = V::select(
-            V::mask(kz0),
-            c.dir[0],
-            V::select(V::mask(kz1), c.dir[1], c.dir[2]),
-        );
+        let dkz = V::select(is0, c.dir[0], V::select(is1_else_2, c.dir[1], c.dir[2]));
         let swap = dkz.lt(zero);
         let keep = !swap;
         let k_bits = [
@@ -166,7 +166,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
             [kz0, kz1],
         ];
         let k_is = k_bits.map(|b| b.map(V::mask));
-        let dk: [V; 3] = core::array::from_fn(|j| pick(&c.dir, &k_is[j]));
+        let dk = [pick(&c.dir, &k_is[0]), pick(&c.dir, &k_is[1])];
         let slack = V::splat(SLACK) * pick(&zmax_of, &k_is[2]);
         let t0 = c.tmin.max(enter) - slack;
         let t1 = c.tmax.min(exit) + slack;
@@ -185,7 +185,8 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
             k_uniform: None,
             k_is,
             org_k: core::array::from_fn(|j| pick(&c.org, &k_is[j])),
-            shear: [dk[0] / dk[2], dk[1] / dk[2], one / dk[2]],
+            // 1/dir[kz] is the lane's inv[kz], the same division.
+            shear: [dk[0] / dkz, dk[1] / dkz, pick(&inv, &k_is[2])],
             k_bits,
             above_bits: inv.map(|i| i.lt(zero)),
             t0,

@@ -34,12 +34,6 @@ pub(crate) trait Lanes<const N: usize>:
     fn gt(self, rhs: Self) -> u32;
     /// Lanes where `self <= rhs`, as a bitmask.
     fn le(self, rhs: Self) -> u32;
-    /// Lanes where `self >= rhs`, as a bitmask.
-    fn ge(self, rhs: Self) -> u32;
-    /// Lanes where `self == rhs`, as a bitmask.
-    fn eq(self, rhs: Self) -> u32;
-    /// Lanes whose value is finite, as a bitmask.
-    fn finite(self) -> u32;
     /// Lanes where `self < rhs`, as a lane mask (combine masks with `&`
     /// and `|`, then take one [`Lanes::bits`]).
     fn lt_mask(self, rhs: Self) -> Self;
@@ -113,18 +107,6 @@ macro_rules! impl_lanes {
             #[inline(always)]
             fn le(self, rhs: Self) -> u32 {
                 self.simd_le(rhs).to_bitmask()
-            }
-            #[inline(always)]
-            fn ge(self, rhs: Self) -> u32 {
-                self.simd_ge(rhs).to_bitmask()
-            }
-            #[inline(always)]
-            fn eq(self, rhs: Self) -> u32 {
-                self.simd_eq(rhs).to_bitmask()
-            }
-            #[inline(always)]
-            fn finite(self) -> u32 {
-                self.is_finite().to_bitmask()
             }
             #[inline(always)]
             fn lt_mask(self, rhs: Self) -> Self {
@@ -230,14 +212,14 @@ mod tests {
             assert_eq!(va.lt(vb), bits(|x, y| x < y));
             assert_eq!(va.gt(vb), bits(|x, y| x > y));
             assert_eq!(va.le(vb), bits(|x, y| x <= y));
-            assert_eq!(va.ge(vb), bits(|x, y| x >= y));
-            assert_eq!(va.eq(vb), bits(|x, y| x == y));
-            assert_eq!(vb.finite(), bits(|_, y| y.is_finite()));
+            assert_eq!(va.ge_mask(vb).bits(), bits(|x, y| x >= y));
+            assert_eq!(va.eq_mask(vb).bits(), bits(|x, y| x == y));
             assert_eq!(va.lt_mask(vb).bits(), va.lt(vb));
             assert_eq!(va.gt_mask(vb).bits(), va.gt(vb));
             assert_eq!(va.le_mask(vb).bits(), va.le(vb));
-            assert_eq!(va.ge_mask(vb).bits(), va.ge(vb));
-            assert_eq!(va.eq_mask(vb).bits(), va.eq(vb));
+            // `|x| < inf`, the lanes' finiteness test.
+            let inf = V::splat(f32::INFINITY);
+            assert_eq!(vb.abs().lt_mask(inf).bits(), bits(|_, y| y.is_finite()));
             if !a.is_nan() {
                 // The walk only takes min/max with a non-NaN left operand;
                 // signed zeros may come out either way in both, so compare
@@ -255,6 +237,31 @@ mod tests {
         let m = V::mask(0b1010_0110);
         let pick = V::select(m, V::splat(1.0), V::splat(2.0)).to_array();
         assert_eq!(pick, [2.0, 1.0, 1.0, 2.0, 2.0, 1.0, 2.0, 1.0]);
+    }
+
+    /// Rays `l = 0..n`, field `f` of ray `l` = `10 l + f`, as columns.
+    fn columns_of<V: Lanes<N>, const N: usize>(n: usize) -> [[f32; N]; 8] {
+        let rays: [Ray; N] = core::array::from_fn(|l| {
+            bytemuck::cast(core::array::from_fn::<f32, 8, _>(|f| (10 * l + f) as f32))
+        });
+        V::columns(&rays[..n]).map(V::to_array)
+    }
+
+    #[test]
+    fn columns_transpose_rays_and_zero_missing_lanes() {
+        fn check<V: Lanes<N>, const N: usize>() {
+            for n in 0..=N {
+                let cols = columns_of::<V, N>(n);
+                for (f, col) in cols.iter().enumerate() {
+                    for (l, &x) in col.iter().enumerate() {
+                        let want = if l < n { (10 * l + f) as f32 } else { 0.0 };
+                        assert_eq!(x, want, "{N} lanes, {n} rays, field {f}, lane {l}");
+                    }
+                }
+            }
+        }
+        check::<f32x4, 4>();
+        check::<f32x8, 8>();
     }
 
     #[test]

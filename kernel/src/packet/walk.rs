@@ -307,7 +307,7 @@ impl<'a> TriangleTree<'a> {
             return;
         }
         loop {
-            let Some(&node) = self.nodes.get(node_idx as usize) else {
+            let Some(node) = self.nodes.get(node_idx as usize) else {
                 return;
             };
             let axis = node.axis_bits();
@@ -355,7 +355,7 @@ impl<'a> TriangleTree<'a> {
                 continue;
             } else {
                 // A leaf: test its triangles against the lanes' own intervals.
-                visit.leaf(LeafIter::new(self.leaf_prims(node)), lanes)
+                visit.leaf(LeafIter::new(self.leaf_prims(*node)), lanes)
             };
             let Some((best_t, alive)) = step else {
                 return;

@@ -80,13 +80,44 @@ pub(crate) struct Single {
 }
 
 /// Rays in lanes as they arrive: origins, directions, intervals.
-struct Columns<V> {
+pub(crate) struct Columns<V> {
     org: [V; 3],
     dir: [V; 3],
     tmin: V,
     tmax: V,
     /// Lanes holding a ray.
     valid: u32,
+}
+
+impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
+    /// The first `N` rays of `rays` in lanes (lanes past its end
+    /// inactive): a transpose in registers.
+    #[inline(always)]
+    pub(crate) fn columns(rays: &[Ray]) -> Columns<V> {
+        let [ox, oy, oz, tmin, dx, dy, dz, tmax] = V::columns(rays);
+        Columns {
+            org: [ox, oy, oz],
+            dir: [dx, dy, dz],
+            tmin,
+            tmax,
+            valid: (1u32 << rays.len().min(N)) - 1,
+        }
+    }
+
+    /// Whether the rays' directions share their sign bits on every axis:
+    /// the cheap test, before any lane is prepared, that the packet can
+    /// walk together (`LaneRays::coherent` is the exact one). Random rays
+    /// almost never pass it and are traced as single rays without the
+    /// packet set-up (measured on the bunny's random rays, interleaved:
+    /// 8-wide packets went from 0.85-1.02x to 0.98-1.2x single rays;
+    /// camera tiles unchanged). A lane's bitmask is its sign bit.
+    #[inline(always)]
+    pub(crate) fn signs_agree(cols: &Columns<V>) -> bool {
+        cols.dir.iter().all(|d| {
+            let neg = d.bits() & cols.valid;
+            neg == 0 || neg == cols.valid
+        })
+    }
 }
 
 impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
@@ -106,19 +137,11 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
         })
     }
 
-    /// Prepares the first `N` rays of `rays` (lanes past its end are
-    /// inactive) against the scene `bounds`, read in place.
+    /// Prepares the rays `cols` holds, the first `N` rays of `rays` (lanes
+    /// past its end inactive), against the scene `bounds`.
     #[inline(always)]
-    pub(crate) fn from_rays(rays: &[Ray], bounds: &Bounds) -> Self {
-        let [ox, oy, oz, tmin, dx, dy, dz, tmax] = V::columns(rays);
-        let cols = Columns {
-            org: [ox, oy, oz],
-            dir: [dx, dy, dz],
-            tmin,
-            tmax,
-            valid: (1u32 << rays.len().min(N)) - 1,
-        };
-        Self::in_lanes(&cols, bounds)
+    pub(crate) fn from_rays(cols: &Columns<V>, rays: &[Ray], bounds: &Bounds) -> Self {
+        Self::in_lanes(cols, bounds)
             .unwrap_or_else(|| Self::lane_by_lane(|l| rays.get(l).copied(), bounds))
     }
 

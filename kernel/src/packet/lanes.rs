@@ -45,7 +45,7 @@ pub(crate) trait Lanes<const N: usize>:
     fn ge_mask(self, rhs: Self) -> Self;
     /// Lanes where `self == rhs`, as a lane mask.
     fn eq_mask(self, rhs: Self) -> Self;
-    /// The bitmask of a lane mask.
+    /// Each lane's sign bit, as a bitmask: for a lane mask, its lanes.
     fn bits(self) -> u32;
     /// `if_true` where `mask` (a lane mask from [`Lanes::mask`]) is set.
     fn select(mask: Self, if_true: Self, if_false: Self) -> Self;

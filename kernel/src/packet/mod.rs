@@ -398,33 +398,16 @@ fn in_packets<V: Lanes<N>, T: Copy, const N: usize>(
 ) {
     let mut stack = LaneStack::new(V::splat(0.0));
     for (rs, os) in rays.chunks(N).zip(out.chunks_mut(N)) {
-        if !signs_agree(rs.iter().map(|r| &r.dir)) {
+        let cols = LaneRays::<V, N>::columns(rs);
+        if !LaneRays::signs_agree(&cols) {
             for (o, r) in os.iter_mut().zip(rs) {
                 *o = one(r);
             }
             continue;
         }
-        let answers = trace(&LaneRays::from_rays(rs, &tree.bounds), &mut stack);
+        let answers = trace(&LaneRays::from_rays(&cols, rs, &tree.bounds), &mut stack);
         for (o, a) in os.iter_mut().zip(answers).take(rs.len()) {
             *o = a;
-        }
-    }
-}
-
-/// Whether the directions share their sign bits on every axis: the cheap
-/// test, before any lane is prepared, that the packet can walk together
-/// (`LaneRays::coherent` is the exact one). Random rays almost never pass
-/// it and are traced as single rays without the packet set-up (measured
-/// on the bunny's random rays, interleaved: 8-wide packets went from
-/// 0.85-1.02x to 0.98-1.2x single rays; camera tiles unchanged).
-#[inline(always)]
-fn signs_agree<'r>(mut dirs: impl Iterator<Item = &'r [f32; 3]>) -> bool {
-    let sign = |d: &[f32; 3]| d.map(f32::is_sign_negative);
-    match dirs.next() {
-        None => true,
-        Some(first) => {
-            let s = sign(first);
-            dirs.all(|d| sign(d) == s)
         }
     }
 }

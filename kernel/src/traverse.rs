@@ -273,12 +273,69 @@ struct Pending {
 // The traversal stack the docs promise: MAX_DEPTH entries of 12 bytes.
 const _: () = assert!(core::mem::size_of::<Pending>() * MAX_DEPTH as usize == 768);
 
-/// What a leaf visitor tells the walk.
-enum Step {
-    /// Keep going; skip cells starting after this `t` (the best hit plus slack).
-    Continue(f32),
-    /// The answer is known.
-    Stop,
+/// What the walk does in a non-empty leaf: the closest-hit or the any-hit
+/// search. A trait rather than a closure so that the leaf test is inlined
+/// into the loop (as a closure it was an out-of-line call per leaf).
+trait Visit<'a, T> {
+    /// The end of the ray's current interval: cells starting beyond it
+    /// (plus the slack) cannot hold a better hit.
+    fn bound(&self) -> f32;
+    /// Tests the leaf's triangles; `true` when the answer is known.
+    fn leaf(&mut self, tris: &'a [Triangle], prims: LeafIter<'a>, tally: &mut T) -> bool;
+}
+
+/// The closest-hit search: every triangle of a leaf against `[tmin, best.t]`.
+struct ClosestVisit<'r> {
+    sr: &'r ShearedRay,
+    tmin: f32,
+    best: &'r mut Closest,
+}
+
+impl<'a, T: Tally> Visit<'a, T> for ClosestVisit<'_> {
+    #[inline(always)]
+    fn bound(&self) -> f32 {
+        self.best.t
+    }
+
+    #[inline(always)]
+    fn leaf(&mut self, tris: &'a [Triangle], prims: LeafIter<'a>, tally: &mut T) -> bool {
+        for p in prims {
+            if let Some(tri) = tris.get(p as usize) {
+                tally.triangle();
+                self.best.offer(self.sr, tri, p, self.tmin);
+            }
+        }
+        false
+    }
+}
+
+/// The any-hit search: stops at the first triangle hit in `[tmin, tmax]`.
+struct AnyVisit<'r> {
+    sr: &'r ShearedRay,
+    tmin: f32,
+    tmax: f32,
+    found: bool,
+}
+
+impl<'a, T: Tally> Visit<'a, T> for AnyVisit<'_> {
+    #[inline(always)]
+    fn bound(&self) -> f32 {
+        self.tmax
+    }
+
+    #[inline(always)]
+    fn leaf(&mut self, tris: &'a [Triangle], prims: LeafIter<'a>, tally: &mut T) -> bool {
+        for p in prims {
+            if let Some(tri) = tris.get(p as usize) {
+                tally.triangle();
+                if self.sr.intersect(tri, self.tmin, self.tmax).is_some() {
+                    self.found = true;
+                    return true;
+                }
+            }
+        }
+        false
+    }
 }
 
 impl<'a> TriangleTree<'a> {
@@ -353,15 +410,8 @@ impl<'a> TriangleTree<'a> {
         start: (u32, f32, f32),
         tally: &mut T,
     ) {
-        self.walk(cr, start, tally, |tris, prims, tally| {
-            for p in prims {
-                if let Some(tri) = tris.get(p as usize) {
-                    tally.triangle();
-                    best.offer(sr, tri, p, tmin);
-                }
-            }
-            Step::Continue(best.t)
-        });
+        let mut visit = ClosestVisit { sr, tmin, best };
+        self.walk(cr, start, tally, &mut visit);
     }
 
     /// Does any triangle hit `ray` in `[tmin, tmax]`? Exactly when
@@ -424,33 +474,29 @@ impl<'a> TriangleTree<'a> {
         start: (u32, f32, f32),
         tally: &mut T,
     ) -> bool {
-        let mut found = false;
-        self.walk(cr, start, tally, |tris, prims, tally| {
-            for p in prims {
-                let Some(tri) = tris.get(p as usize) else {
-                    continue;
-                };
-                tally.triangle();
-                if sr.intersect(tri, tmin, tmax).is_some() {
-                    found = true;
-                    return Step::Stop;
-                }
-            }
-            Step::Continue(tmax)
-        });
-        found
+        let mut visit = AnyVisit {
+            sr,
+            tmin,
+            tmax,
+            found: false,
+        };
+        self.walk(cr, start, tally, &mut visit);
+        visit.found
     }
 
-    /// The traversal loop. `leaf` is called with the triangles and each
-    /// leaf's primitives, in front-to-back order of cells.
+    /// The traversal loop: `visit` sees each non-empty leaf's primitives,
+    /// in front-to-back order of cells.
     #[inline(always)]
-    fn walk<T, F>(&self, cr: &CellRay, start: (u32, f32, f32), tally: &mut T, mut leaf: F)
+    fn walk<T, V>(&self, cr: &CellRay, start: (u32, f32, f32), tally: &mut T, visit: &mut V)
     where
         T: Tally,
-        F: FnMut(&'a [Triangle], LeafIter<'a>, &mut T) -> Step,
+        V: Visit<'a, T>,
     {
         let s = cr.slack;
         let s2 = s + s;
+        // Cells starting after `cutoff` (the best hit plus the slack,
+        // widened by the slack) are behind the best hit.
+        let mut cutoff = visit.bound().cutoff(s2);
         let mut stack = [Pending::default(); MAX_DEPTH as usize];
         let mut sp = 0usize;
         let (mut node_idx, mut lo, mut hi) = start;
@@ -501,12 +547,14 @@ impl<'a> TriangleTree<'a> {
                 continue;
             }
             // A leaf: test its triangles against the ray's own interval.
-            // Cells starting after `cutoff` (best t + s, widened by s) are
-            // behind the best hit.
-            let cutoff = match leaf(self.triangles, LeafIter::new(self.leaf_prims(node)), tally) {
-                Step::Stop => return,
-                Step::Continue(best_t) => best_t.cutoff(s2),
-            };
+            // An empty cell has nothing to test and leaves the cutoff as is.
+            if node.upper() != 0 {
+                let prims = LeafIter::new(self.leaf_prims(node));
+                if visit.leaf(self.triangles, prims, tally) {
+                    return;
+                }
+                cutoff = visit.bound().cutoff(s2);
+            }
             // Advance to the next far cell that can still hold a better hit.
             loop {
                 if sp == 0 {

@@ -101,6 +101,9 @@ pub struct CellRay {
     pub inv: [f32; 3],
     /// 1 where the ray enters the above child first (`inv < 0`), else 0.
     pub above_first: [u32; 3],
+    /// The same three bits (x in bit 0) repeated in each nibble, the form
+    /// `Node::first_child` takes.
+    pub(crate) above_first_nibbles: u32,
     /// The widened interval over the root cell.
     pub t0: f32,
     /// End of the widened interval over the root cell.
@@ -148,10 +151,12 @@ impl CellRay {
         let t0 = ray.tmin.max(enter) - slack;
         let t1 = ray.tmax.min(exit) + slack;
         if t0 <= t1 {
+            let bits = above_first[0] | above_first[1] << 1 | above_first[2] << 2;
             Some(CellRay {
                 org,
                 inv,
                 above_first,
+                above_first_nibbles: bits * 0x1111_1111,
                 t0,
                 t1,
                 slack,
@@ -509,8 +514,9 @@ impl<'a> TriangleTree<'a> {
             if axis < 3 {
                 // Compute parametric distance along ray to split plane.
                 let t_split = (node.split() - cr.org[axis]) * cr.inv[axis];
-                let first = node.upper() + cr.above_first[axis];
-                let second = node.upper() + 1 - cr.above_first[axis];
+                let first = node.first_child(cr.above_first_nibbles);
+                // The pair is (upper, upper + 1): the other one.
+                let second = 2 * node.upper() + 1 - first;
                 // The near child's cell ends at t_split, the far child's
                 // starts there. Intervals are kept widened by the slack on
                 // both ends ([lo, hi] = [t0 - s, t1 + s]), so the tests take

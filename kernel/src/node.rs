@@ -248,9 +248,7 @@ mod tests {
         for bits in 0..8u32 {
             for axis in Axis::ALL {
                 let above = (bits >> axis.index()) & 1;
-                for child in
-                    (1..40).chain([MAX_NODE_FIELD - 8..MAX_NODE_FIELD].into_iter().flatten())
-                {
+                for child in (1..40).chain(MAX_NODE_FIELD - 8..MAX_NODE_FIELD) {
                     let n = Node::interior(axis, 0.0, child).unwrap();
                     assert_eq!(n.first_child(bits * 0x1111_1111), child + above);
                 }

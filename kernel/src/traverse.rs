@@ -515,8 +515,9 @@ impl<'a> TriangleTree<'a> {
                 // Compute parametric distance along ray to split plane.
                 let t_split = (node.split() - cr.org[axis]) * cr.inv[axis];
                 let first = node.first_child(cr.above_first_nibbles);
-                // The pair is (upper, upper + 1): the other one.
-                let second = 2 * node.upper() + 1 - first;
+                // The other child of the pair: the one a ray with every
+                // direction sign flipped would enter first.
+                let second = node.first_child(!cr.above_first_nibbles);
                 // The near child's cell ends at t_split, the far child's
                 // starts there. Intervals are kept widened by the slack on
                 // both ends ([lo, hi] = [t0 - s, t1 + s]), so the tests take

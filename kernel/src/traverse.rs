@@ -137,8 +137,10 @@ impl CellRay {
             }
             let ta = (bounds.min[a] - org[a]) * inv[a];
             let tb = (bounds.max[a] - org[a]) * inv[a];
-            enter = enter.max(ta.min(tb));
-            exit = exit.min(ta.max(tb));
+            // ta and tb are never NaN (finite inv, finite coordinates):
+            // plain selects, not f32::min/max's NaN handling.
+            enter = Span::max(enter, Span::min(ta, tb));
+            exit = Span::min(exit, Span::max(ta, tb));
         }
         // Slack from the ray's extent through the scene along its dominant
         // axis, which bounds every t the scene's triangles can produce.
@@ -405,7 +407,7 @@ impl<'a> TriangleTree<'a> {
     /// `(node, lo, hi)` (interval widened by the slack), into `best`;
     /// triangles are tested over `[tmin, best.t]`. (Packets finish lone
     /// lanes with it.)
-    #[inline(always)]
+    #[inline(never)]
     pub(crate) fn closest_from<T: Tally>(
         &self,
         sr: &ShearedRay,
@@ -470,7 +472,7 @@ impl<'a> TriangleTree<'a> {
 
     /// The any-hit search of one ray over `[tmin, tmax]` through the
     /// subtree at `start` = `(node, lo, hi)`.
-    #[inline(always)]
+    #[inline(never)]
     pub(crate) fn any_from<T: Tally>(
         &self,
         sr: &ShearedRay,
@@ -570,7 +572,7 @@ impl<'a> TriangleTree<'a> {
                 sp -= 1;
                 let p = stack[sp];
                 if p.lo <= cutoff {
-                    (node_idx, lo, hi) = (p.node, p.lo, p.hi.min(cutoff));
+                    (node_idx, lo, hi) = (p.node, p.lo, Span::min(p.hi, cutoff));
                     break;
                 }
             }

@@ -53,6 +53,33 @@ impl Events {
         }
     }
 
+    /// A cell without triangles.
+    const EMPTY: Events = Events {
+        ev: Vec::new(),
+        starts: [0; 2],
+        n: 0,
+    };
+
+    /// `BELOW` or `ABOVE` when every triangle goes to that side of the
+    /// plane of `c` (module docs). Events at the plane sort ends, then
+    /// planars, then starts: so the first event is planar when any is,
+    /// and an end cannot come first (its start lies before the plane).
+    fn one_side(&self, c: &Choice) -> Option<u8> {
+        let on_k = self.axis(c.axis);
+        let (&first, &last) = (on_k.first()?, on_k.last()?);
+        let goes = |e: u64, side: bool| {
+            let at = events::pos(e);
+            at == c.pos && (events::kind(e) != PLANAR || c.planar_below == side)
+        };
+        if events::pos(first) > c.pos || goes(first, false) {
+            Some(ABOVE)
+        } else if events::pos(last) < c.pos || goes(last, true) {
+            Some(BELOW)
+        } else {
+            None
+        }
+    }
+
     /// The cell made of the three runs, in axis order.
     fn of_runs(runs: [Vec<u64>; 3], n: usize) -> Events {
         let [x, y, z] = runs;
@@ -362,6 +389,13 @@ impl Splitter for EventSah<'_> {
     }
 
     fn partition(&self, set: Events, cell: &Aabb, c: &Choice) -> (Events, Events) {
+        // A plane that cuts off empty space (more than half the splits
+        // near the leaves): one side takes every event as it is.
+        match set.one_side(c) {
+            Some(BELOW) => return (set, Events::EMPTY),
+            Some(_) => return (Events::EMPTY, set),
+            None => {}
+        }
         if set.n >= PARALLEL_MIN {
             // Large cells split in parallel, so fresh buffers.
             let mut scratch = Scratch {

@@ -210,7 +210,11 @@ impl EventSah<'_> {
             if pos > lo && pos < hi {
                 let (pb, pa) = ratios.at(pos);
                 let below = self.cost.split(pb, n_below + planars, pa, n_above);
-                let above = self.cost.split(pb, n_below, pa, n_above + planars);
+                let above = if planars == 0 {
+                    below
+                } else {
+                    self.cost.split(pb, n_below, pa, n_above + planars)
+                };
                 let (planar_below, cost) = if below <= above {
                     (true, below)
                 } else {

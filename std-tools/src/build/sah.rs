@@ -113,6 +113,8 @@ struct Scratch {
     /// The sides of the triangles of the cell being split (indexed by
     /// triangle; only the cell's own entries are written, then read).
     sides: Vec<u8>,
+    /// The straddling triangles.
+    straddlers: Vec<u32>,
     /// The straddling triangles, clipped.
     clipped: Vec<Clipped>,
     /// The straddlers' new events on one axis, below and above.
@@ -247,50 +249,48 @@ impl EventSah<'_> {
         let (k, p) = (c.axis, c.pos);
         let on_k = set.axis(k);
         let sides = &mut scratch.sides;
-        // Classify on the split axis's events (module docs).
+        // Classify on the split axis's events (module docs), in one pass:
+        // a box's start sorts before its end, so a triangle is first taken
+        // as straddling and settled at its end. One event per triangle is
+        // not an end, so each triangle is counted once.
+        let (mut nb, mut na) = (0, 0);
+        let straddlers = &mut scratch.straddlers;
+        straddlers.clear();
         for &e in on_k {
-            sides[events::tri(e) as usize] = BOTH;
-        }
-        for &e in on_k {
-            let (t, at) = (events::tri(e) as usize, events::pos(e));
+            let (t, at) = (events::tri(e), events::pos(e));
+            let side = &mut sides[t as usize];
             match events::kind(e) {
-                END if at <= p => sides[t] = BELOW,
-                START if at >= p => sides[t] = ABOVE,
-                PLANAR => {
-                    sides[t] = if at < p || (at == p && c.planar_below) {
+                START if at >= p => *side = ABOVE,
+                START => *side = BOTH,
+                END if *side == BOTH && at <= p => *side = BELOW,
+                END if *side == BOTH => straddlers.push(t),
+                END => continue,
+                _ => {
+                    *side = if at < p || (at == p && c.planar_below) {
                         BELOW
                     } else {
                         ABOVE
-                    };
+                    }
                 }
-                _ => {}
             }
-        }
-        let sides = &*sides;
-        // One event per triangle on the split axis is not an end: count
-        // the one-sided triangles there.
-        let (mut nb, mut na) = (0, 0);
-        for &e in on_k.iter().filter(|&&e| events::kind(e) != END) {
-            match sides[events::tri(e) as usize] {
+            match *side {
                 BELOW => nb += 1,
                 ABOVE => na += 1,
                 _ => {}
             }
         }
+        let sides = &*sides;
         // Straddling triangles: clip to each child's cell.
-        let straddles =
-            |e: &&u64| events::kind(**e) == START && sides[events::tri(**e) as usize] == BOTH;
-        let clip = |e: &u64| {
-            let t = events::tri(*e);
+        let clip = |&t: &u32| {
             let (b, a) = split_boxes(&self.triangles[t as usize], cell, k, p);
             (t, b, a)
         };
         let clipped = &mut scratch.clipped;
         clipped.clear();
         if parallel {
-            clipped.par_extend(on_k.par_iter().filter(straddles).map(clip));
+            clipped.par_extend(straddlers.par_iter().map(clip));
         } else {
-            clipped.extend(on_k.iter().filter(straddles).map(clip));
+            clipped.extend(straddlers.iter().map(clip));
         }
         let clipped = &*clipped;
         nb += clipped.iter().filter(|c| c.1.is_some()).count();

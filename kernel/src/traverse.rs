@@ -516,6 +516,11 @@ impl<'a> TriangleTree<'a> {
         let mut stack = [MaybeUninit::<Pending>::uninit(); MAX_DEPTH as usize];
         let mut sp = 0usize;
         let (mut node_idx, mut lo, mut hi) = start;
+        // Origin and reciprocal direction side by side, filled element by
+        // element: copying `cr`'s arrays whole loaded 8 bytes across two
+        // smaller stores, a store-forwarding stall per ray.
+        let (o, i) = (cr.org, cr.inv);
+        let slab = [o[0], o[1], o[2], 0.0, i[0], i[1], i[2], 0.0];
         loop {
             let Some(&node) = self.nodes.get(node_idx as usize) else {
                 return;
@@ -524,7 +529,7 @@ impl<'a> TriangleTree<'a> {
             let axis = node.axis_bits();
             if axis < 3 {
                 // Compute parametric distance along ray to split plane.
-                let t_split = (node.split() - cr.org[axis]) * cr.inv[axis];
+                let t_split = (node.split() - slab[axis]) * slab[axis + 4];
                 let first = node.first_child(cr.above_first_nibbles);
                 // The other child of the pair: the one a ray with every
                 // direction sign flipped would enter first.

@@ -165,6 +165,19 @@ impl Node {
         self.word1 >> 2
     }
 
+    /// The child of an interior node that a ray enters first: the below
+    /// child (`upper()`), or the above one when the ray's bit for this
+    /// node's axis is set in `above_first`. `above_first` holds the three
+    /// per-axis bits (x in bit 0, y in 1, z in 2) repeated in every nibble,
+    /// so one shift by the whole second word (the hardware takes its low
+    /// five bits: `4 * (child % 8) + axis`) finds the bit: the walk's
+    /// node-to-node latency chain has no table load in it.
+    #[inline(always)]
+    #[must_use]
+    pub(crate) const fn first_child(self, above_first: u32) -> u32 {
+        self.upper() + (above_first.wrapping_shr(self.word1) & 1)
+    }
+
     /// The low word: a leaf's offset or single primitive (the split bits
     /// for an interior node).
     #[inline(always)]
@@ -228,5 +241,18 @@ mod tests {
         assert!(Node::interior(Axis::X, 0.0, MAX_NODE_FIELD + 1).is_none());
         assert!(Node::leaf(MAX_NODE_FIELD + 1, 0).is_none());
         assert!(Node::leaf(0, 0).unwrap().is_leaf());
+    }
+
+    #[test]
+    fn first_child_reads_the_axis_bit_for_every_child_index() {
+        for bits in 0..8u32 {
+            for axis in Axis::ALL {
+                let above = (bits >> axis.index()) & 1;
+                for child in (1..40).chain(MAX_NODE_FIELD - 8..MAX_NODE_FIELD) {
+                    let n = Node::interior(axis, 0.0, child).unwrap();
+                    assert_eq!(n.first_child(bits * 0x1111_1111), child + above);
+                }
+            }
+        }
     }
 }

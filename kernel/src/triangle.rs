@@ -135,22 +135,30 @@ impl ShearedRay {
     pub fn intersect(&self, tri: &Triangle, tmin: f32, tmax: f32) -> Option<TriangleHit> {
         let [kx, ky, kz] = self.k;
         let [sx, sy, sz] = self.s;
+        let org = [self.org[kx], self.org[ky], self.org[kz]];
         // Vertices relative to the origin, then sheared so the ray is +z.
-        let rel = |p: [f32; 3]| {
-            let q = [p[0] - self.org[0], p[1] - self.org[1], p[2] - self.org[2]];
-            (q[kx] - sx * q[kz], q[ky] - sy * q[kz], q[kz])
+        // Read by permuted index straight from the triangle: a local copy
+        // indexed by `k` would be spilled and reloaded through store
+        // forwarding for every vertex (measured in the leaf loop).
+        let rel = |p: &[f32; 3]| {
+            let (x, y, z) = (p[kx] - org[0], p[ky] - org[1], p[kz] - org[2]);
+            (x - sx * z, y - sy * z, z)
         };
-        let (ax, ay, az) = rel(tri.v[0]);
-        let (bx, by, bz) = rel(tri.v[1]);
-        let (cx, cy, cz) = rel(tri.v[2]);
+        let (ax, ay, az) = rel(&tri.v[0]);
+        let (bx, by, bz) = rel(&tri.v[1]);
+        let (cx, cy, cz) = rel(&tri.v[2]);
         // 2-D edge functions: u weighs vertex 0, v vertex 1, w vertex 2.
         let mut u = cx * by - cy * bx;
         let mut v = ax * cy - ay * cx;
         let mut w = bx * ay - by * ax;
-        if u == 0.0 || v == 0.0 || w == 0.0 {
+        // `|` and `&` rather than `||` and `&&`: one branch each instead of
+        // three (a NaN edge function passes both tests, then fails on det).
+        if (u == 0.0) | (v == 0.0) | (w == 0.0) {
             [u, v, w] = edge_functions_f64([ax, ay, bx, by, cx, cy]);
         }
-        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        let negative = (u < 0.0) | (v < 0.0) | (w < 0.0);
+        let positive = (u > 0.0) | (v > 0.0) | (w > 0.0);
+        if negative & positive {
             return None;
         }
         let det = u + v + w;

@@ -77,7 +77,8 @@ impl Splitter for BoxSplitter {
     fn partition(&self, set: Vec<Item>, cell: &Aabb, c: &Choice) -> (Vec<Item>, Vec<Item>) {
         let (a, p) = (c.axis, c.pos);
         let (cb, ca) = cell.split(a, p);
-        let (mut below, mut above) = (Vec::new(), Vec::new());
+        // Room for every triangle on each side; the spare is given back.
+        let (mut below, mut above) = (Vec::with_capacity(set.len()), Vec::with_capacity(set.len()));
         for it in set {
             let (lo, hi) = (it.b.min[a], it.b.max[a]);
             if lo == p && hi == p {
@@ -101,6 +102,8 @@ impl Splitter for BoxSplitter {
                 });
             }
         }
+        below.shrink_to_fit();
+        above.shrink_to_fit();
         (below, above)
     }
 }

@@ -33,7 +33,7 @@ struct Polygon {
 impl Polygon {
     /// Keeps the part on the inner side of the plane `x[axis] = plane`:
     /// `x[axis] >= plane` when `keep_above`, else `x[axis] <= plane`.
-    fn clip(self, axis: usize, plane: f64, keep_above: bool) -> Polygon {
+    fn clip(&mut self, axis: usize, plane: f64, keep_above: bool) {
         let inside = |p: &[f64; 3]| {
             if keep_above {
                 p[axis] >= plane
@@ -42,8 +42,8 @@ impl Polygon {
             }
         };
         if self.v[..self.len].iter().all(inside) {
-            // Most planes cut nothing: skip the copy.
-            return self;
+            // Most planes cut nothing: no copy.
+            return;
         }
         let mut out = Polygon {
             v: [[0.0; 3]; MAX_VERTICES],
@@ -69,7 +69,13 @@ impl Polygon {
                 push(p);
             }
         }
-        out
+        *self = out;
+    }
+
+    /// The part on the inner side of the plane (see [`Polygon::clip`]).
+    fn clipped(mut self, axis: usize, plane: f64, keep_above: bool) -> Polygon {
+        self.clip(axis, plane, keep_above);
+        self
     }
 }
 
@@ -110,8 +116,8 @@ pub(super) fn split_boxes(
     let (below, above) = cell.split(axis, pos);
     let plane = f64::from(pos);
     (
-        bounds(&poly.clip(axis, plane + eps, false), &below, eps),
-        bounds(&poly.clip(axis, plane - eps, true), &above, eps),
+        bounds(&poly.clipped(axis, plane + eps, false), &below, eps),
+        bounds(&poly.clipped(axis, plane - eps, true), &above, eps),
     )
 }
 
@@ -146,8 +152,8 @@ fn clip_to_cell(tri: &Triangle, cell: &Aabb, eps: f64) -> Polygon {
         *slot = p.map(f64::from);
     }
     for axis in 0..3 {
-        poly = poly.clip(axis, f64::from(cell.min[axis]) - eps, true);
-        poly = poly.clip(axis, f64::from(cell.max[axis]) + eps, false);
+        poly.clip(axis, f64::from(cell.min[axis]) - eps, true);
+        poly.clip(axis, f64::from(cell.max[axis]) + eps, false);
     }
     poly
 }
@@ -157,13 +163,18 @@ fn bounds(poly: &Polygon, cell: &Aabb, eps: f64) -> Option<Aabb> {
     if poly.len == 0 {
         return None;
     }
-    let mut b = Aabb::EMPTY;
+    // Rounding is monotone: round the extremes only.
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for p in &poly.v[..poly.len] {
-        for (a, &x) in p.iter().enumerate() {
-            b.min[a] = b.min[a].min(round_down(x - eps));
-            b.max[a] = b.max[a].max(round_up(x + eps));
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
         }
     }
+    let b = Aabb {
+        min: lo.map(|x| round_down(x - eps)),
+        max: hi.map(|x| round_up(x + eps)),
+    };
     let b = b.intersect(cell);
     (0..3).all(|a| b.min[a] <= b.max[a]).then_some(b)
 }

@@ -70,27 +70,6 @@ pub(super) fn push(out: &mut Vec<u64>, b: &Aabb, axis: usize, tri: u32) {
     }
 }
 
-/// Merges two sorted event lists.
-pub(super) fn merge(a: Vec<u64>, b: Vec<u64>) -> Vec<u64> {
-    if b.is_empty() {
-        return a;
-    }
-    let mut out = Vec::with_capacity(a.len() + b.len());
-    let (mut i, mut j) = (0, 0);
-    while i < a.len() && j < b.len() {
-        if a[i] <= b[j] {
-            out.push(a[i]);
-            i += 1;
-        } else {
-            out.push(b[j]);
-            j += 1;
-        }
-    }
-    out.extend_from_slice(&a[i..]);
-    out.extend_from_slice(&b[j..]);
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -109,11 +88,5 @@ mod tests {
             assert_eq!(pos(e), x + 0.0);
             assert_eq!((kind(e), tri(e)), (PLANAR, 77));
         }
-    }
-
-    #[test]
-    fn merge_keeps_order() {
-        let m = merge(vec![1, 4, 9], vec![2, 3, 10]);
-        assert_eq!(m, vec![1, 2, 3, 4, 9, 10]);
     }
 }

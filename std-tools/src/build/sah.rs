@@ -33,10 +33,63 @@ use kdray_kernel::Triangle;
 use rayon::prelude::*;
 use std::cell::RefCell;
 
-/// A cell's triangles: their events on each axis, sorted.
+/// A cell's triangles: their events on each axis, sorted, the three axes'
+/// runs one after another in one buffer (one allocation per cell).
 pub(super) struct Events {
-    ev: [Vec<u64>; 3],
+    ev: Vec<u64>,
+    /// Where the runs of axes 1 and 2 start.
+    starts: [usize; 2],
     n: usize,
+}
+
+impl Events {
+    /// The events on `axis`.
+    fn axis(&self, axis: usize) -> &[u64] {
+        let [one, two] = self.starts;
+        match axis {
+            0 => &self.ev[..one],
+            1 => &self.ev[one..two],
+            _ => &self.ev[two..],
+        }
+    }
+
+    /// A cell without triangles.
+    const EMPTY: Events = Events {
+        ev: Vec::new(),
+        starts: [0; 2],
+        n: 0,
+    };
+
+    /// `BELOW` or `ABOVE` when every triangle goes to that side of the
+    /// plane of `c` (module docs). Events at the plane sort ends, then
+    /// planars, then starts: so the first event is planar when any is,
+    /// and an end cannot come first (its start lies before the plane).
+    fn one_side(&self, c: &Choice) -> Option<u8> {
+        let on_k = self.axis(c.axis);
+        let (&first, &last) = (on_k.first()?, on_k.last()?);
+        let goes = |e: u64, side: bool| {
+            let at = events::pos(e);
+            at == c.pos && (events::kind(e) != PLANAR || c.planar_below == side)
+        };
+        if events::pos(first) > c.pos || goes(first, false) {
+            Some(ABOVE)
+        } else if events::pos(last) < c.pos || goes(last, true) {
+            Some(BELOW)
+        } else {
+            None
+        }
+    }
+
+    /// The cell made of the three runs, in axis order.
+    fn of_runs(runs: [Vec<u64>; 3], n: usize) -> Events {
+        let [x, y, z] = runs;
+        let starts = [x.len(), x.len() + y.len()];
+        let mut ev = Vec::with_capacity(starts[1] + z.len());
+        for run in [x, y, z] {
+            ev.extend_from_slice(&run);
+        }
+        Events { ev, starts, n }
+    }
 }
 
 /// The event-sweep splitter.
@@ -50,10 +103,71 @@ const BOTH: u8 = 0;
 const BELOW: u8 = 1;
 const ABOVE: u8 = 2;
 
-thread_local! {
-    /// Per-thread sides of the triangles of the cell being split (indexed by
+/// A straddling triangle and its boxes in the cells below and above.
+type Clipped = (u32, Option<Aabb>, Option<Aabb>);
+
+/// The reusable buffers of one split, so small cells allocate only their
+/// children's event lists.
+#[derive(Default)]
+struct Scratch {
+    /// The sides of the triangles of the cell being split (indexed by
     /// triangle; only the cell's own entries are written, then read).
-    static SIDES: RefCell<Vec<u8>> = const { RefCell::new(Vec::new()) };
+    sides: Vec<u8>,
+    /// The straddling triangles.
+    straddlers: Vec<u32>,
+    /// The straddling triangles, clipped.
+    clipped: Vec<Clipped>,
+    /// The straddlers' new events on one axis, below and above.
+    new: [Vec<u64>; 2],
+}
+
+thread_local! {
+    /// Per-thread buffers for the cells split on one thread.
+    static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
+}
+
+/// Appends the events of `run` (one axis of the cell being split) that
+/// go below and above to `out`, merged with the clipped straddlers'
+/// events on `axis`, all in sweep order. One pass: the one-sided events
+/// are already sorted, only the straddlers' few new ones are sorted.
+fn split_run(
+    run: &[u64],
+    axis: usize,
+    sides: &[u8],
+    clipped: &[Clipped],
+    new: &mut [Vec<u64>; 2],
+    out: [&mut Vec<u64>; 2],
+) {
+    let [new_b, new_a] = new;
+    new_b.clear();
+    new_a.clear();
+    for (t, b, a) in clipped {
+        if let Some(b) = b {
+            events::push(new_b, b, axis, *t);
+        }
+        if let Some(a) = a {
+            events::push(new_a, a, axis, *t);
+        }
+    }
+    new_b.sort_unstable();
+    new_a.sort_unstable();
+    let [out_b, out_a] = out;
+    let (mut i, mut j) = (0, 0);
+    for &e in run {
+        // Keys are unique, so the merge order is the sort order.
+        let (out, new, next) = match sides[events::tri(e) as usize] {
+            BELOW => (&mut *out_b, &*new_b, &mut i),
+            ABOVE => (&mut *out_a, &*new_a, &mut j),
+            _ => continue,
+        };
+        while let Some(&x) = new.get(*next).filter(|&&x| x < e) {
+            out.push(x);
+            *next += 1;
+        }
+        out.push(e);
+    }
+    out_b.extend_from_slice(&new_b[i..]);
+    out_a.extend_from_slice(&new_a[j..]);
 }
 
 impl EventSah<'_> {
@@ -71,10 +185,7 @@ impl EventSah<'_> {
             || axis_events(0),
             || rayon::join(|| axis_events(1), || axis_events(2)),
         );
-        Events {
-            ev: [x, y, z],
-            n: boxes.len(),
-        }
+        Events::of_runs([x, y, z], boxes.len())
     }
 
     /// The cheapest plane on `axis` (first of equal costs).
@@ -101,7 +212,11 @@ impl EventSah<'_> {
             if pos > lo && pos < hi {
                 let (pb, pa) = ratios.at(pos);
                 let below = self.cost.split(pb, n_below + planars, pa, n_above);
-                let above = self.cost.split(pb, n_below, pa, n_above + planars);
+                let above = if planars == 0 {
+                    below
+                } else {
+                    self.cost.split(pb, n_below, pa, n_above + planars)
+                };
                 let (planar_below, cost) = if below <= above {
                     (true, below)
                 } else {
@@ -121,97 +236,117 @@ impl EventSah<'_> {
         best
     }
 
-    /// Splits `set` with the sides array `sides` (one entry per triangle).
+    /// Splits `set` with the buffers `scratch` (whose sides array has an
+    /// entry per triangle); `parallel` for large cells.
     fn split_events(
         &self,
-        set: Events,
+        set: &Events,
         cell: &Aabb,
         c: &Choice,
-        sides: &mut [u8],
+        scratch: &mut Scratch,
         parallel: bool,
     ) -> (Events, Events) {
-        let Events { ev, .. } = set;
         let (k, p) = (c.axis, c.pos);
-        // Classify on the split axis's events (module docs).
-        for &e in &ev[k] {
-            sides[events::tri(e) as usize] = BOTH;
-        }
-        for &e in &ev[k] {
-            let (t, at) = (events::tri(e) as usize, events::pos(e));
+        let on_k = set.axis(k);
+        let sides = &mut scratch.sides;
+        // Classify on the split axis's events (module docs), in one pass:
+        // a box's start sorts before its end, so a triangle is first taken
+        // as straddling and settled at its end. One event per triangle is
+        // not an end, so each triangle is counted once.
+        let (mut nb, mut na) = (0, 0);
+        let straddlers = &mut scratch.straddlers;
+        straddlers.clear();
+        for &e in on_k {
+            let (t, at) = (events::tri(e), events::pos(e));
+            let side = &mut sides[t as usize];
             match events::kind(e) {
-                END if at <= p => sides[t] = BELOW,
-                START if at >= p => sides[t] = ABOVE,
-                PLANAR => {
-                    sides[t] = if at < p || (at == p && c.planar_below) {
+                START if at >= p => *side = ABOVE,
+                START => *side = BOTH,
+                END if *side == BOTH && at <= p => *side = BELOW,
+                END if *side == BOTH => straddlers.push(t),
+                END => continue,
+                _ => {
+                    *side = if at < p || (at == p && c.planar_below) {
                         BELOW
                     } else {
                         ABOVE
-                    };
+                    }
                 }
+            }
+            match *side {
+                BELOW => nb += 1,
+                ABOVE => na += 1,
                 _ => {}
             }
         }
         let sides = &*sides;
         // Straddling triangles: clip to each child's cell.
-        let straddling: Vec<u32> = ev[k]
-            .iter()
-            .filter(|&&e| events::kind(e) == START && sides[events::tri(e) as usize] == BOTH)
-            .map(|&e| events::tri(e))
-            .collect();
-        let clip = |t: u32| {
+        let clip = |&t: &u32| {
             let (b, a) = split_boxes(&self.triangles[t as usize], cell, k, p);
             (t, b, a)
         };
-        let clipped: Vec<(u32, Option<Aabb>, Option<Aabb>)> = if parallel {
-            straddling.par_iter().map(|&t| clip(t)).collect()
+        let clipped = &mut scratch.clipped;
+        clipped.clear();
+        if parallel {
+            clipped.par_extend(straddlers.par_iter().map(clip));
         } else {
-            straddling.iter().map(|&t| clip(t)).collect()
-        };
-        let only = |side: u8| {
-            ev[k]
-                .iter()
-                .filter(|&&e| events::kind(e) != END && sides[events::tri(e) as usize] == side)
-                .count()
-        };
-        let nb = only(BELOW) + clipped.iter().filter(|c| c.1.is_some()).count();
-        let na = only(ABOVE) + clipped.iter().filter(|c| c.2.is_some()).count();
-        let split_axis = |axis: usize| {
-            let (mut below, mut above) = (Vec::new(), Vec::new());
-            for &e in &ev[axis] {
-                match sides[events::tri(e) as usize] {
-                    BELOW => below.push(e),
-                    ABOVE => above.push(e),
-                    _ => {}
-                }
-            }
-            let (mut new_b, mut new_a) = (Vec::new(), Vec::new());
-            for (t, b, a) in &clipped {
-                if let Some(b) = b {
-                    events::push(&mut new_b, b, axis, *t);
-                }
-                if let Some(a) = a {
-                    events::push(&mut new_a, a, axis, *t);
-                }
-            }
-            new_b.sort_unstable();
-            new_a.sort_unstable();
-            (events::merge(below, new_b), events::merge(above, new_a))
-        };
-        let ((xb, xa), ((yb, ya), (zb, za))) = if parallel {
-            rayon::join(
+            clipped.extend(straddlers.iter().map(clip));
+        }
+        let clipped = &*clipped;
+        nb += clipped.iter().filter(|c| c.1.is_some()).count();
+        na += clipped.iter().filter(|c| c.2.is_some()).count();
+        if parallel {
+            let split_axis = |axis: usize| {
+                let (mut b, mut a) = (Vec::new(), Vec::new());
+                let mut new = Default::default();
+                split_run(
+                    set.axis(axis),
+                    axis,
+                    sides,
+                    clipped,
+                    &mut new,
+                    [&mut b, &mut a],
+                );
+                (b, a)
+            };
+            let ((xb, xa), ((yb, ya), (zb, za))) = rayon::join(
                 || split_axis(0),
                 || rayon::join(|| split_axis(1), || split_axis(2)),
-            )
-        } else {
-            (split_axis(0), (split_axis(1), split_axis(2)))
-        };
+            );
+            return (
+                Events::of_runs([xb, yb, zb], nb),
+                Events::of_runs([xa, ya, za], na),
+            );
+        }
+        // Each side holds at most the cell's events plus the straddlers'
+        // new ones; the spare room is given back at the end.
+        let room = set.ev.len() + 6 * clipped.len();
+        let (mut b, mut a) = (Vec::with_capacity(room), Vec::with_capacity(room));
+        let (mut sb, mut sa) = ([0; 2], [0; 2]);
+        for axis in 0..3 {
+            if axis > 0 {
+                (sb[axis - 1], sa[axis - 1]) = (b.len(), a.len());
+            }
+            split_run(
+                set.axis(axis),
+                axis,
+                sides,
+                clipped,
+                &mut scratch.new,
+                [&mut b, &mut a],
+            );
+        }
+        b.shrink_to_fit();
+        a.shrink_to_fit();
         (
             Events {
-                ev: [xb, yb, zb],
+                ev: b,
+                starts: sb,
                 n: nb,
             },
             Events {
-                ev: [xa, ya, za],
+                ev: a,
+                starts: sa,
                 n: na,
             },
         )
@@ -226,11 +361,12 @@ impl Splitter for EventSah<'_> {
     }
 
     fn bytes(&self, set: &Events) -> usize {
-        set.ev.iter().map(|e| e.capacity() * 8).sum()
+        set.ev.capacity() * 8
     }
 
     fn prims(&self, set: Events) -> Vec<u32> {
-        let mut p: Vec<u32> = set.ev[0]
+        let mut p: Vec<u32> = set
+            .axis(0)
             .iter()
             .filter(|&&e| events::kind(e) != END)
             .map(|&e| events::tri(e))
@@ -240,7 +376,7 @@ impl Splitter for EventSah<'_> {
     }
 
     fn choose(&self, set: &Events, cell: &Aabb) -> Option<Choice> {
-        let sweep = |axis: usize| self.sweep(&set.ev[axis], set.n, axis, cell);
+        let sweep = |axis: usize| self.sweep(set.axis(axis), set.n, axis, cell);
         let (x, (y, z)) = if set.n >= PARALLEL_MIN {
             rayon::join(|| sweep(0), || rayon::join(|| sweep(1), || sweep(2)))
         } else {
@@ -257,18 +393,28 @@ impl Splitter for EventSah<'_> {
     }
 
     fn partition(&self, set: Events, cell: &Aabb, c: &Choice) -> (Events, Events) {
+        // A plane that cuts off empty space (more than half the splits
+        // near the leaves): one side takes every event as it is.
+        match set.one_side(c) {
+            Some(BELOW) => return (set, Events::EMPTY),
+            Some(_) => return (Events::EMPTY, set),
+            None => {}
+        }
         if set.n >= PARALLEL_MIN {
-            // Large cells split in parallel, so a shared, fresh sides array.
-            let mut sides = vec![BOTH; self.triangles.len()];
-            self.split_events(set, cell, c, &mut sides, true)
+            // Large cells split in parallel, so fresh buffers.
+            let mut scratch = Scratch {
+                sides: vec![BOTH; self.triangles.len()],
+                ..Scratch::default()
+            };
+            self.split_events(&set, cell, c, &mut scratch, true)
         } else {
             // Small cells run on one thread with no rayon calls inside, so
-            // the thread's own array cannot be borrowed twice.
-            SIDES.with_borrow_mut(|sides| {
-                if sides.len() < self.triangles.len() {
-                    sides.resize(self.triangles.len(), BOTH);
+            // the thread's own buffers cannot be borrowed twice.
+            SCRATCH.with_borrow_mut(|scratch| {
+                if scratch.sides.len() < self.triangles.len() {
+                    scratch.sides.resize(self.triangles.len(), BOTH);
                 }
-                self.split_events(set, cell, c, sides, false)
+                self.split_events(&set, cell, c, scratch, false)
             })
         }
     }

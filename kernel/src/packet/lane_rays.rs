@@ -36,8 +36,10 @@ pub(crate) struct LaneRays<V, const N: usize> {
     pub(crate) org: [V; 3],
     /// `1/dir` per axis.
     pub(crate) inv: [V; 3],
-    /// Per axis, 1 when the (coherent) lanes enter the above child first.
-    pub(crate) above_first: [u32; 3],
+    /// The (coherent) lanes' above-first bits, x in bit 0, y in 1, z in
+    /// 2, repeated in every nibble: the form `Node::first_child` reads, as
+    /// [`CellRay`] keeps it.
+    pub(crate) above_first_nibbles: u32,
     /// The root interval as the single ray starts its walk,
     /// [`CellRay::start`]: widened by the slack once more.
     pub(crate) lo: V,
@@ -199,7 +201,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
             coherent: false,
             org: c.org,
             inv,
-            above_first: [0; 3],
+            above_first_nibbles: 0,
             lo: t0 - slack,
             hi: t1 + slack,
             s2: slack + slack,
@@ -263,7 +265,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
             coherent: false,
             org: org.map(V::from_array),
             inv: inv.map(V::from_array),
-            above_first: [0; 3],
+            above_first_nibbles: 0,
             lo: t0 - slack,
             hi: t1 + slack,
             s2: slack + slack,
@@ -287,9 +289,10 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
     fn settle(mut self) -> Self {
         let active = self.active;
         let shared = |bits: u32| bits & active == 0 || bits & active == active;
-        for (af, &bits) in self.above_first.iter_mut().zip(&self.above_bits) {
-            *af = u32::from(bits & active != 0);
-        }
+        let bits = (0..3).fold(0, |m, a| {
+            m | u32::from(self.above_bits[a] & active != 0) << a
+        });
+        self.above_first_nibbles = nibbles(bits);
         self.coherent = self.above_bits.iter().all(|&b| shared(b));
         if self.k_bits.iter().flatten().all(|&b| shared(b)) {
             self.k_uniform = Some(self.k((active.trailing_zeros() as usize).min(N - 1)));
@@ -316,6 +319,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
     pub(crate) fn single(&self, l: usize) -> Single {
         let at = |v: &V| v.lane(l);
         let org = self.org.each_ref().map(at);
+        let above_first = self.above_bits.map(|b| b >> l & 1);
         Single {
             sr: ShearedRay {
                 org,
@@ -325,7 +329,10 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
             cr: CellRay {
                 org,
                 inv: self.inv.each_ref().map(at),
-                above_first: self.above_bits.map(|b| b >> l & 1),
+                above_first,
+                above_first_nibbles: nibbles(
+                    above_first[0] | above_first[1] << 1 | above_first[2] << 2,
+                ),
                 t0: at(&self.t0),
                 t1: at(&self.t1),
                 slack: at(&self.slack),
@@ -334,6 +341,13 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
             tmax: at(&self.tmax),
         }
     }
+}
+
+/// Three per-axis bits repeated in every nibble, as `CellRay::new` keeps
+/// them for `Node::first_child`.
+#[inline(always)]
+fn nibbles(bits: u32) -> u32 {
+    bits * 0x1111_1111
 }
 
 /// `v[c]` in each lane, where `is[c]` marks the lanes of `c` (0, 1, else 2).

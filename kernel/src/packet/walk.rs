@@ -320,9 +320,7 @@ impl<'a> TriangleTree<'a> {
                 // 5.2, up to 3 gave 5.1).
                 let l = lanes.trailing_zeros() as usize;
                 visit.single(l, (node_idx, lo.lane(l), hi.lane(l)))
-            } else if let (Some(&org), Some(&inv), Some(&above_first)) =
-                (lr.org.get(axis), lr.inv.get(axis), lr.above_first.get(axis))
-            {
+            } else if let (Some(&org), Some(&inv)) = (lr.org.get(axis), lr.inv.get(axis)) {
                 // Compute parametric distance along each lane to the split plane.
                 let t_split = (V::splat(node.split()) - org) * inv;
                 // The single ray's rule lane by lane (`traverse.rs`): a
@@ -331,8 +329,11 @@ impl<'a> TriangleTree<'a> {
                 // NaN t_split visits both.
                 let near = lanes & !t_split.lt(lo);
                 let far = lanes & !(near & t_split.gt(hi));
-                let first = node.upper() + above_first;
-                let second = node.upper() + 1 - above_first;
+                // The near child by the single ray's one-shift rule (no
+                // table load on the node-to-node chain); the far one with
+                // the bits flipped.
+                let first = node.first_child(lr.above_first_nibbles);
+                let second = node.first_child(!lr.above_first_nibbles);
                 let far_lo = lo.far_lo(t_split, s2);
                 // Push the far child unconditionally and keep it only when
                 // the packet visits both children (the single ray's way:

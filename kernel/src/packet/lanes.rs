@@ -2,11 +2,13 @@
 //! and `f32x8`, so one generic walk serves both widths.
 //!
 //! Only exact IEEE operations are exposed: `+ - * /` (true division, never
-//! `recip`), comparisons, and the NaN-fixing `min`/`max` whose NaN rule is
-//! `f32::min`/`f32::max`'s (a NaN operand yields the other one). No fused
-//! multiply-add: each lane rounds exactly where the scalar code does.
-//! Masks are lane vectors with all bits set or clear, as `wide` returns
-//! them; control flow reads them as bitmasks (bit `l` = lane `l`).
+//! `recip`), `abs`, comparisons, and the scalar walk's `min`/`max`
+//! selects ([`Span`]: `rhs` where it is smaller/larger, else `self`, so a
+//! NaN `rhs` keeps `self`). No fused multiply-add: each lane rounds
+//! exactly where the scalar code does. Masks are lane vectors with all
+//! bits set or clear, as `wide` returns them, combined with `&` and `|`;
+//! control flow reads them as bitmasks (bit `l` = lane `l`), one per
+//! decision.
 
 use crate::ray::Ray;
 use crate::traverse::Span;
@@ -220,19 +222,12 @@ mod tests {
             // `|x| < inf`, the lanes' finiteness test.
             let inf = V::splat(f32::INFINITY);
             assert_eq!(vb.abs().lt_mask(inf).bits(), bits(|_, y| y.is_finite()));
-            if !a.is_nan() {
-                // The walk only takes min/max with a non-NaN left operand;
-                // signed zeros may come out either way in both, so compare
-                // values (and NaN-ness) rather than bits there.
-                let same = |v: V, f: fn(f32, f32) -> f32| {
-                    for (l, x) in v.to_array().into_iter().enumerate() {
-                        let y = f(a, SPECIAL[l]);
-                        assert!(x == y || (x.is_nan() && y.is_nan()), "{a} {}", SPECIAL[l]);
-                    }
-                };
-                same(va.min(vb), f32::min);
-                same(va.max(vb), f32::max);
-            }
+            // min/max are the scalar walk's selects, bit for bit (signed
+            // zeros and NaNs included).
+            let raw = |v: V| v.to_array().map(f32::to_bits);
+            let scalar = |f: fn(f32, f32) -> f32| SPECIAL.map(|b| f(a, b).to_bits());
+            assert_eq!(raw(Span::min(va, vb)), scalar(<f32 as Span>::min));
+            assert_eq!(raw(Span::max(va, vb)), scalar(<f32 as Span>::max));
         }
         let m = V::mask(0b1010_0110);
         let pick = V::select(m, V::splat(1.0), V::splat(2.0)).to_array();

@@ -10,8 +10,9 @@
 
 use super::aabb::Aabb;
 use super::cost::CostModel;
-use super::subdivide::{Choice, Splitter};
+use super::subdivide::{Choice, Splitter, PARALLEL_MIN};
 use super::{binned, median};
+use rayon::prelude::*;
 
 /// One triangle of a cell.
 #[derive(Clone, Copy, Debug)]
@@ -75,35 +76,60 @@ impl Splitter for BoxSplitter {
     }
 
     fn partition(&self, set: Vec<Item>, cell: &Aabb, c: &Choice) -> (Vec<Item>, Vec<Item>) {
-        let (a, p) = (c.axis, c.pos);
-        let (cb, ca) = cell.split(a, p);
+        let (cb, ca) = cell.split(c.axis, c.pos);
+        partition(set, c, |it| {
+            (Some(it.b.intersect(&cb)), Some(it.b.intersect(&ca)))
+        })
+    }
+}
+
+/// The items of the cells below and above the plane of `c` (module docs),
+/// in the order of `set`; `cut` gives a straddling item's boxes in the
+/// child cells (`None`: it misses that child). Large cells are split in
+/// parallel chunks, joined in order: the same result for any thread count.
+pub(super) fn partition<F>(set: Vec<Item>, c: &Choice, cut: F) -> (Vec<Item>, Vec<Item>)
+where
+    F: Fn(&Item) -> (Option<Aabb>, Option<Aabb>) + Sync,
+{
+    let (a, p) = (c.axis, c.pos);
+    let split = |chunk: &[Item]| {
         // Room for every triangle on each side; the spare is given back.
-        let (mut below, mut above) = (Vec::with_capacity(set.len()), Vec::with_capacity(set.len()));
-        for it in set {
+        let mut below = Vec::with_capacity(chunk.len());
+        let mut above = Vec::with_capacity(chunk.len());
+        for it in chunk {
             let (lo, hi) = (it.b.min[a], it.b.max[a]);
             if lo == p && hi == p {
                 if c.planar_below {
-                    below.push(it);
+                    below.push(*it);
                 } else {
-                    above.push(it);
+                    above.push(*it);
                 }
-                continue;
-            }
-            if lo < p {
-                below.push(Item {
-                    tri: it.tri,
-                    b: it.b.intersect(&cb),
-                });
-            }
-            if hi > p {
-                above.push(Item {
-                    tri: it.tri,
-                    b: it.b.intersect(&ca),
-                });
+            } else if hi <= p {
+                below.push(*it);
+            } else if lo >= p {
+                above.push(*it);
+            } else {
+                let (b, t) = cut(it);
+                below.extend(b.map(|b| Item { tri: it.tri, b }));
+                above.extend(t.map(|b| Item { tri: it.tri, b }));
             }
         }
-        below.shrink_to_fit();
-        above.shrink_to_fit();
         (below, above)
-    }
+    };
+    let (mut below, mut above) = if set.len() >= PARALLEL_MIN {
+        let parts: Vec<_> = set.par_chunks(PARALLEL_MIN).map(split).collect();
+        let join = |side: fn(&(Vec<Item>, Vec<Item>)) -> &Vec<Item>| {
+            let mut out = Vec::with_capacity(parts.iter().map(|x| side(x).len()).sum());
+            for x in &parts {
+                out.extend_from_slice(side(x));
+            }
+            out
+        };
+        (join(|x| &x.0), join(|x| &x.1))
+    } else {
+        split(&set)
+    };
+    below.shrink_to_fit();
+    above.shrink_to_fit();
+    (below, above)
 }

@@ -262,8 +262,12 @@ fn build_in_pool(
     };
     let root = match kind {
         BuilderKind::Sah => {
-            let s = sah::EventSah { triangles, cost };
-            let set = s.root(&boxes);
+            let s = sah::EventSah {
+                triangles,
+                cost,
+                bins: params.bins,
+            };
+            let set = sah::EventSah::root(&boxes);
             subdivide::subdivide(&s, set, bounds, &limits, monitor)
         }
         BuilderKind::Binned | BuilderKind::Median | BuilderKind::Middle => {

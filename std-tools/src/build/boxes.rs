@@ -9,9 +9,11 @@
 //! a box lying in the plane goes to the side the rule chose.
 
 use super::aabb::Aabb;
+use super::clip::split_boxes;
 use super::cost::CostModel;
 use super::subdivide::{Choice, Splitter, PARALLEL_MIN};
 use super::{binned, median};
+use kdray_kernel::Triangle;
 use rayon::prelude::*;
 
 /// One triangle of a cell.
@@ -35,12 +37,15 @@ pub(super) enum Rule {
 }
 
 /// The box splitter.
-pub(super) struct BoxSplitter {
+pub(super) struct BoxSplitter<'a> {
     pub(super) rule: Rule,
     pub(super) cost: CostModel,
+    /// The triangles, for perfect splits (straddlers clipped to each
+    /// child's cell); `None`: their boxes are cut by the plane.
+    pub(super) perfect: Option<&'a [Triangle]>,
 }
 
-impl BoxSplitter {
+impl BoxSplitter<'_> {
     /// The root cell's items.
     pub(super) fn root(boxes: &[Aabb]) -> Vec<Item> {
         boxes
@@ -51,7 +56,7 @@ impl BoxSplitter {
     }
 }
 
-impl Splitter for BoxSplitter {
+impl Splitter for BoxSplitter<'_> {
     type Set = Vec<Item>;
 
     fn count(&self, set: &Vec<Item>) -> usize {
@@ -76,6 +81,11 @@ impl Splitter for BoxSplitter {
     }
 
     fn partition(&self, set: Vec<Item>, cell: &Aabb, c: &Choice) -> (Vec<Item>, Vec<Item>) {
+        if let Some(tris) = self.perfect {
+            return partition(set, c, |it| {
+                split_boxes(&tris[it.tri as usize], cell, c.axis, c.pos)
+            });
+        }
         let (cb, ca) = cell.split(c.axis, c.pos);
         partition(set, c, |it| {
             (Some(it.b.intersect(&cb)), Some(it.b.intersect(&ca)))

@@ -9,7 +9,7 @@
 //! a box lying in the plane goes to the side the rule chose.
 
 use super::aabb::Aabb;
-use super::clip::split_boxes;
+use super::clip::{cut_box, split_boxes, PERFECT_MIN};
 use super::cost::CostModel;
 use super::subdivide::{Choice, Splitter, PARALLEL_MIN};
 use super::{binned, median};
@@ -41,7 +41,8 @@ pub(super) struct BoxSplitter<'a> {
     pub(super) rule: Rule,
     pub(super) cost: CostModel,
     /// The triangles, for perfect splits (straddlers clipped to each
-    /// child's cell); `None`: their boxes are cut by the plane.
+    /// child's cell, in cells of at least [`PERFECT_MIN`] triangles);
+    /// `None`: their boxes are cut by the plane.
     pub(super) perfect: Option<&'a [Triangle]>,
 }
 
@@ -81,15 +82,12 @@ impl Splitter for BoxSplitter<'_> {
     }
 
     fn partition(&self, set: Vec<Item>, cell: &Aabb, c: &Choice) -> (Vec<Item>, Vec<Item>) {
-        if let Some(tris) = self.perfect {
+        if let Some(tris) = self.perfect.filter(|_| set.len() >= PERFECT_MIN) {
             return partition(set, c, |it| {
                 split_boxes(&tris[it.tri as usize], cell, c.axis, c.pos)
             });
         }
-        let (cb, ca) = cell.split(c.axis, c.pos);
-        partition(set, c, |it| {
-            (Some(it.b.intersect(&cb)), Some(it.b.intersect(&ca)))
-        })
+        partition(set, c, |it| cut_box(&it.b, cell, c.axis, c.pos))
     }
 }
 

@@ -11,7 +11,9 @@
 //! After a split the triangles on one side only keep their events, still
 //! sorted, filtered in one linear pass. Only the triangles straddling the
 //! plane get new events: each is clipped to each child's cell
-//! ([perfect splits](super::clip)), and the new events, sorted, are merged
+//! ([perfect splits](super::clip); in cells of fewer than
+//! `PERFECT_MIN` triangles their boxes are only cut by the plane), and
+//! the new events, sorted, are merged
 //! in. With the one sort at the root, the build is O(N log N).
 //!
 //! Which side a triangle goes to (split plane at `p` on axis `k`):
@@ -35,7 +37,7 @@
 use super::aabb::Aabb;
 use super::binned;
 use super::boxes::{self, Item};
-use super::clip::split_boxes;
+use super::clip::{cut_box, split_boxes, PERFECT_MIN};
 use super::cost::{AreaRatios, CostModel};
 use super::events::{self, END, PLANAR, START};
 use super::subdivide::{Choice, Splitter};
@@ -322,7 +324,13 @@ impl EventSah<'_> {
         let sides = &*sides;
         // Straddling triangles: clip to each child's cell.
         let clip = |&t: &u32| {
-            let (b, a) = split_boxes(&self.triangles[t as usize], cell, k, p);
+            let tri = &self.triangles[t as usize];
+            let (b, a) = if set.n >= PERFECT_MIN {
+                split_boxes(tri, cell, k, p)
+            } else {
+                // Small cells: the triangle's box in the cell, cut.
+                cut_box(&Aabb::of_triangle(tri).intersect(cell), cell, k, p)
+            };
             (t, b, a)
         };
         let clipped = &mut scratch.clipped;

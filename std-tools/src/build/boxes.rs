@@ -126,14 +126,12 @@ where
     };
     let (mut below, mut above) = if set.len() >= PARALLEL_MIN {
         let parts: Vec<_> = set.par_chunks(PARALLEL_MIN).map(split).collect();
-        let join = |side: fn(&(Vec<Item>, Vec<Item>)) -> &Vec<Item>| {
-            let mut out = Vec::with_capacity(parts.iter().map(|x| side(x).len()).sum());
-            for x in &parts {
-                out.extend_from_slice(side(x));
-            }
-            out
-        };
-        (join(|x| &x.0), join(|x| &x.1))
+        let (mut below, mut above) = (Vec::new(), Vec::new());
+        for (b, a) in parts {
+            below.extend_from_slice(&b);
+            above.extend_from_slice(&a);
+        }
+        (below, above)
     } else {
         split(&set)
     };

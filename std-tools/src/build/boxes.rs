@@ -9,9 +9,12 @@
 //! a box lying in the plane goes to the side the rule chose.
 
 use super::aabb::Aabb;
+use super::clip::{cut_box, split_boxes, PERFECT_MIN};
 use super::cost::CostModel;
-use super::subdivide::{Choice, Splitter};
+use super::subdivide::{Choice, Splitter, PARALLEL_MIN};
 use super::{binned, median};
+use kdray_kernel::Triangle;
+use rayon::prelude::*;
 
 /// One triangle of a cell.
 #[derive(Clone, Copy, Debug)]
@@ -34,12 +37,16 @@ pub(super) enum Rule {
 }
 
 /// The box splitter.
-pub(super) struct BoxSplitter {
+pub(super) struct BoxSplitter<'a> {
     pub(super) rule: Rule,
     pub(super) cost: CostModel,
+    /// The triangles, for perfect splits (straddlers clipped to each
+    /// child's cell, in cells of at least [`PERFECT_MIN`] triangles);
+    /// `None`: their boxes are cut by the plane.
+    pub(super) perfect: Option<&'a [Triangle]>,
 }
 
-impl BoxSplitter {
+impl BoxSplitter<'_> {
     /// The root cell's items.
     pub(super) fn root(boxes: &[Aabb]) -> Vec<Item> {
         boxes
@@ -50,7 +57,7 @@ impl BoxSplitter {
     }
 }
 
-impl Splitter for BoxSplitter {
+impl Splitter for BoxSplitter<'_> {
     type Set = Vec<Item>;
 
     fn count(&self, set: &Vec<Item>) -> usize {
@@ -75,35 +82,60 @@ impl Splitter for BoxSplitter {
     }
 
     fn partition(&self, set: Vec<Item>, cell: &Aabb, c: &Choice) -> (Vec<Item>, Vec<Item>) {
-        let (a, p) = (c.axis, c.pos);
-        let (cb, ca) = cell.split(a, p);
+        if let Some(tris) = self.perfect.filter(|_| set.len() >= PERFECT_MIN) {
+            return partition(set, c, |it| {
+                split_boxes(&tris[it.tri as usize], cell, c.axis, c.pos)
+            });
+        }
+        partition(set, c, |it| cut_box(&it.b, cell, c.axis, c.pos))
+    }
+}
+
+/// The items of the cells below and above the plane of `c` (module docs),
+/// in the order of `set`; `cut` gives a straddling item's boxes in the
+/// child cells (`None`: it misses that child). Large cells are split in
+/// parallel chunks, joined in order: the same result for any thread count.
+pub(super) fn partition<F>(set: Vec<Item>, c: &Choice, cut: F) -> (Vec<Item>, Vec<Item>)
+where
+    F: Fn(&Item) -> (Option<Aabb>, Option<Aabb>) + Sync,
+{
+    let (a, p) = (c.axis, c.pos);
+    let split = |chunk: &[Item]| {
         // Room for every triangle on each side; the spare is given back.
-        let (mut below, mut above) = (Vec::with_capacity(set.len()), Vec::with_capacity(set.len()));
-        for it in set {
+        let mut below = Vec::with_capacity(chunk.len());
+        let mut above = Vec::with_capacity(chunk.len());
+        for it in chunk {
             let (lo, hi) = (it.b.min[a], it.b.max[a]);
             if lo == p && hi == p {
                 if c.planar_below {
-                    below.push(it);
+                    below.push(*it);
                 } else {
-                    above.push(it);
+                    above.push(*it);
                 }
-                continue;
-            }
-            if lo < p {
-                below.push(Item {
-                    tri: it.tri,
-                    b: it.b.intersect(&cb),
-                });
-            }
-            if hi > p {
-                above.push(Item {
-                    tri: it.tri,
-                    b: it.b.intersect(&ca),
-                });
+            } else if hi <= p {
+                below.push(*it);
+            } else if lo >= p {
+                above.push(*it);
+            } else {
+                let (b, t) = cut(it);
+                below.extend(b.map(|b| Item { tri: it.tri, b }));
+                above.extend(t.map(|b| Item { tri: it.tri, b }));
             }
         }
-        below.shrink_to_fit();
-        above.shrink_to_fit();
         (below, above)
-    }
+    };
+    let (mut below, mut above) = if set.len() >= PARALLEL_MIN {
+        let parts: Vec<_> = set.par_chunks(PARALLEL_MIN).map(split).collect();
+        let (mut below, mut above) = (Vec::new(), Vec::new());
+        for (b, a) in parts {
+            below.extend_from_slice(&b);
+            above.extend_from_slice(&a);
+        }
+        (below, above)
+    } else {
+        split(&set)
+    };
+    below.shrink_to_fit();
+    above.shrink_to_fit();
+    (below, above)
 }

@@ -263,7 +263,7 @@ fn build_in_pool(
     let root = match kind {
         BuilderKind::Sah => {
             let s = sah::EventSah { triangles, cost };
-            let set = s.root(&boxes);
+            let set = sah::EventSah::root(&boxes);
             subdivide::subdivide(&s, set, bounds, &limits, monitor)
         }
         BuilderKind::Binned | BuilderKind::Median | BuilderKind::Middle => {
@@ -273,7 +273,14 @@ fn build_in_pool(
                 BuilderKind::Median => boxes::Rule::Median(leaf),
                 _ => boxes::Rule::Middle(leaf),
             };
-            let s = boxes::BoxSplitter { rule, cost };
+            // The binned builder splits perfectly too: bunny tree cost
+            // 32.79 -> 29.22 (the sweep's: 29.02), for ~40% more build time.
+            let perfect = (kind == BuilderKind::Binned).then_some(triangles);
+            let s = boxes::BoxSplitter {
+                rule,
+                cost,
+                perfect,
+            };
             let set = boxes::BoxSplitter::root(&boxes);
             subdivide::subdivide(&s, set, bounds, &limits, monitor)
         }

@@ -165,6 +165,15 @@ impl Node {
         self.word1 >> 2
     }
 
+    /// The `above_first` mask [`Node::first_child`] takes, from the three
+    /// per-axis bits (x in bit 0, y in bit 1, z in bit 2): repeated in
+    /// every nibble.
+    #[inline(always)]
+    #[must_use]
+    pub(crate) const fn first_child_mask(bits: u32) -> u32 {
+        (bits & 7) * 0x1111_1111
+    }
+
     /// The child of an interior node that a ray enters first: the below
     /// child (`upper()`), or the above one when the ray's bit for this
     /// node's axis is set in `above_first`. `above_first` holds the three
@@ -250,7 +259,7 @@ mod tests {
                 let above = (bits >> axis.index()) & 1;
                 for child in (1..40).chain(MAX_NODE_FIELD - 8..MAX_NODE_FIELD) {
                     let n = Node::interior(axis, 0.0, child).unwrap();
-                    assert_eq!(n.first_child(bits * 0x1111_1111), child + above);
+                    assert_eq!(n.first_child(Node::first_child_mask(bits)), child + above);
                 }
             }
         }

@@ -29,6 +29,7 @@
 //! never ends the search early. The cost is a few extra cells within
 //! `s` of a hit: nothing measurable.
 
+use crate::node::Node;
 use crate::ray::{Hit, Ray, MISS};
 use crate::tree::{Bounds, LeafPrims, TriangleTree, MAX_DEPTH};
 use crate::triangle::{ShearedRay, Triangle, TriangleHit};
@@ -160,7 +161,7 @@ impl CellRay {
                 org,
                 inv,
                 above_first,
-                above_first_nibbles: bits * 0x1111_1111,
+                above_first_nibbles: Node::first_child_mask(bits),
                 t0,
                 t1,
                 slack,

@@ -18,6 +18,7 @@
 
 use super::lanes::Lanes;
 use super::Packet;
+use crate::node::Node;
 use crate::ray::Ray;
 use crate::traverse::{CellRay, SLACK};
 use crate::tree::Bounds;
@@ -292,7 +293,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
         let bits = (0..3).fold(0, |m, a| {
             m | u32::from(self.above_bits[a] & active != 0) << a
         });
-        self.above_first_nibbles = nibbles(bits);
+        self.above_first_nibbles = Node::first_child_mask(bits);
         self.coherent = self.above_bits.iter().all(|&b| shared(b));
         if self.k_bits.iter().flatten().all(|&b| shared(b)) {
             self.k_uniform = Some(self.k((active.trailing_zeros() as usize).min(N - 1)));
@@ -330,7 +331,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
                 org,
                 inv: self.inv.each_ref().map(at),
                 above_first,
-                above_first_nibbles: nibbles(
+                above_first_nibbles: Node::first_child_mask(
                     above_first[0] | above_first[1] << 1 | above_first[2] << 2,
                 ),
                 t0: at(&self.t0),
@@ -341,13 +342,6 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
             tmax: at(&self.tmax),
         }
     }
-}
-
-/// Three per-axis bits repeated in every nibble, as `CellRay::new` keeps
-/// them for `Node::first_child`.
-#[inline(always)]
-fn nibbles(bits: u32) -> u32 {
-    bits * 0x1111_1111
 }
 
 /// `v[c]` in each lane, where `is[c]` marks the lanes of `c` (0, 1, else 2).

@@ -4,7 +4,7 @@
 use kdray::kernel::{closest_hit_brute, include_aligned, Aligned, Ray, TriangleTree};
 use kdray::tools::rng::Rng;
 
-static CUBE_V1: &Aligned<[u8]> = include_aligned!("golden/cube-v1.kdt");
+static CUBE_V1: &Aligned<[u8]> = include_aligned!("../kernel/golden/cube-v1.kdt");
 
 fn rays() -> Vec<Ray> {
     let mut rng = Rng::new(9);

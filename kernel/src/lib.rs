@@ -24,7 +24,7 @@
 //! use kdray_kernel::{include_aligned, Ray, TriangleTree};
 //!
 //! // A unit cube with a tilted quad inside (`kdray build cube.obj -o cube-v1.kdt`).
-//! static SCENE: &kdray_kernel::Aligned<[u8]> = include_aligned!("../../tests/golden/cube-v1.kdt");
+//! static SCENE: &kdray_kernel::Aligned<[u8]> = include_aligned!("../golden/cube-v1.kdt");
 //!
 //! let tree = TriangleTree::from_bytes(&SCENE.bytes)?; // validated once, zero-copy
 //! let ray = Ray::new(Vec3::new(0.3, 0.6, -1.0), Vec3::Z);

@@ -362,7 +362,7 @@ impl<'a> TriangleTree<'a> {
     /// use glam::Vec3;
     /// use kdray_kernel::{closest_hit_brute, Hit, Ray, TriangleTree};
     /// static CUBE: &kdray_kernel::Aligned<[u8]> =
-    ///     kdray_kernel::include_aligned!("../../tests/golden/cube-v1.kdt");
+    ///     kdray_kernel::include_aligned!("../golden/cube-v1.kdt");
     /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
     ///
     /// // From below the cube, straight up: the floor at t = 1.
@@ -438,7 +438,7 @@ impl<'a> TriangleTree<'a> {
     /// use glam::Vec3;
     /// use kdray_kernel::{Ray, TriangleTree};
     /// static CUBE: &kdray_kernel::Aligned<[u8]> =
-    ///     kdray_kernel::include_aligned!("../../tests/golden/cube-v1.kdt");
+    ///     kdray_kernel::include_aligned!("../golden/cube-v1.kdt");
     /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
     ///
     /// // A shadow ray from a point inside the cube to a light outside it:

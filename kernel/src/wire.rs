@@ -237,7 +237,7 @@ pub(crate) fn verify_checksum(header: &Header, blob: &[u8]) -> Result<(), BlobEr
 ///
 /// ```
 /// static SCENE: &kdray_kernel::Aligned<[u8]> =
-///     kdray_kernel::include_aligned!("../../tests/golden/cube-v1.kdt");
+///     kdray_kernel::include_aligned!("../golden/cube-v1.kdt");
 /// let tree = kdray_kernel::TriangleTree::from_bytes(&SCENE.bytes)?;
 /// // Read in place: the tree's triangles are the blob's bytes.
 /// assert_eq!(tree.triangles().as_ptr().cast::<u8>(), SCENE.bytes[SCENE.bytes.len() - 14 * 36..].as_ptr());

@@ -165,13 +165,14 @@ impl Node {
         self.word1 >> 2
     }
 
-    /// The `above_first` mask [`Node::first_child`] takes, from the three
-    /// per-axis bits (x in bit 0, y in bit 1, z in bit 2): repeated in
-    /// every nibble.
+    /// The `above_first` mask [`Node::first_child`] takes, from a ray's
+    /// per-axis flags (1 where it enters the above child first): the three
+    /// bits, x in bit 0, repeated in every nibble.
     #[inline(always)]
     #[must_use]
-    pub(crate) const fn first_child_mask(bits: u32) -> u32 {
-        (bits & 7) * 0x1111_1111
+    pub(crate) const fn first_child_mask(above_first: [u32; 3]) -> u32 {
+        let bits = (above_first[0] & 1) | (above_first[1] & 1) << 1 | (above_first[2] & 1) << 2;
+        bits * 0x1111_1111
     }
 
     /// The child of an interior node that a ray enters first: the below
@@ -255,11 +256,14 @@ mod tests {
     #[test]
     fn first_child_reads_the_axis_bit_for_every_child_index() {
         for bits in 0..8u32 {
+            let above_first = [bits & 1, bits >> 1 & 1, bits >> 2 & 1];
+            let mask = Node::first_child_mask(above_first);
             for axis in Axis::ALL {
-                let above = (bits >> axis.index()) & 1;
+                let above = above_first[axis.index()];
                 for child in (1..40).chain(MAX_NODE_FIELD - 8..MAX_NODE_FIELD) {
                     let n = Node::interior(axis, 0.0, child).unwrap();
-                    assert_eq!(n.first_child(Node::first_child_mask(bits)), child + above);
+                    assert_eq!(n.first_child(mask), child + above);
+                    assert_eq!(n.first_child(!mask), child + 1 - above);
                 }
             }
         }

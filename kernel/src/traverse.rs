@@ -156,12 +156,11 @@ impl CellRay {
         let t0 = ray.tmin.max(enter) - slack;
         let t1 = ray.tmax.min(exit) + slack;
         if t0 <= t1 {
-            let bits = above_first[0] | above_first[1] << 1 | above_first[2] << 2;
             Some(CellRay {
                 org,
                 inv,
                 above_first,
-                above_first_nibbles: Node::first_child_mask(bits),
+                above_first_nibbles: Node::first_child_mask(above_first),
                 t0,
                 t1,
                 slack,

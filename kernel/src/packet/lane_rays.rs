@@ -290,10 +290,8 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
     fn settle(mut self) -> Self {
         let active = self.active;
         let shared = |bits: u32| bits & active == 0 || bits & active == active;
-        let bits = (0..3).fold(0, |m, a| {
-            m | u32::from(self.above_bits[a] & active != 0) << a
-        });
-        self.above_first_nibbles = Node::first_child_mask(bits);
+        let above_first = self.above_bits.map(|b| u32::from(b & active != 0));
+        self.above_first_nibbles = Node::first_child_mask(above_first);
         self.coherent = self.above_bits.iter().all(|&b| shared(b));
         if self.k_bits.iter().flatten().all(|&b| shared(b)) {
             self.k_uniform = Some(self.k((active.trailing_zeros() as usize).min(N - 1)));
@@ -331,9 +329,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
                 org,
                 inv: self.inv.each_ref().map(at),
                 above_first,
-                above_first_nibbles: Node::first_child_mask(
-                    above_first[0] | above_first[1] << 1 | above_first[2] << 2,
-                ),
+                above_first_nibbles: Node::first_child_mask(above_first),
                 t0: at(&self.t0),
                 t1: at(&self.t1),
                 slack: at(&self.slack),

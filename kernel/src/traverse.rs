@@ -323,7 +323,6 @@ struct AnyVisit<'r> {
     sr: &'r ShearedRay,
     tmin: f32,
     tmax: f32,
-    found: bool,
 }
 
 impl<'a, T: Tally> Visit<'a, T> for AnyVisit<'_> {
@@ -338,7 +337,6 @@ impl<'a, T: Tally> Visit<'a, T> for AnyVisit<'_> {
             if let Some(tri) = tris.get(p as usize) {
                 tally.triangle();
                 if self.sr.intersect(tri, self.tmin, self.tmax).is_some() {
-                    self.found = true;
                     return true;
                 }
             }
@@ -423,6 +421,7 @@ impl<'a> TriangleTree<'a> {
         tally: &mut T,
     ) {
         let mut visit = ClosestVisit { sr, tmin, best };
+        // The closest-hit visitor never stops the walk early.
         self.walk(cr, start, tally, &mut visit);
     }
 
@@ -487,20 +486,14 @@ impl<'a> TriangleTree<'a> {
         start: (u32, f32, f32),
         tally: &mut T,
     ) -> bool {
-        let mut visit = AnyVisit {
-            sr,
-            tmin,
-            tmax,
-            found: false,
-        };
-        self.walk(cr, start, tally, &mut visit);
-        visit.found
+        let mut visit = AnyVisit { sr, tmin, tmax };
+        self.walk(cr, start, tally, &mut visit)
     }
 
     /// The traversal loop: `visit` sees each non-empty leaf's primitives,
-    /// in front-to-back order of cells.
+    /// in front-to-back order of cells. `true` when `visit` stopped it.
     #[inline(always)]
-    fn walk<T, V>(&self, cr: &CellRay, start: (u32, f32, f32), tally: &mut T, visit: &mut V)
+    fn walk<T, V>(&self, cr: &CellRay, start: (u32, f32, f32), tally: &mut T, visit: &mut V) -> bool
     where
         T: Tally,
         V: Visit<'a, T>,
@@ -523,7 +516,7 @@ impl<'a> TriangleTree<'a> {
         let slab = [o[0], o[1], o[2], 0.0, i[0], i[1], i[2], 0.0];
         loop {
             let Some(&node) = self.nodes.get(node_idx as usize) else {
-                return;
+                return false;
             };
             tally.node();
             let axis = node.axis_bits();
@@ -547,7 +540,7 @@ impl<'a> TriangleTree<'a> {
                 // Push the far child unconditionally; keep it only when both
                 // children are visited.
                 let Some(slot) = stack.get_mut(sp) else {
-                    return; // deeper than MAX_DEPTH: only an unchecked, invalid blob
+                    return false; // deeper than MAX_DEPTH: only an unchecked, invalid blob
                 };
                 let far_lo = lo.far_lo(t_split, s2);
                 slot.write(Pending {
@@ -574,14 +567,14 @@ impl<'a> TriangleTree<'a> {
             if node.upper() != 0 {
                 let prims = LeafIter::new(self.leaf_prims(node));
                 if visit.leaf(self.triangles, prims, tally) {
-                    return;
+                    return true;
                 }
                 cutoff = visit.bound().cutoff(s2);
             }
             // Advance to the next far cell that can still hold a better hit.
             loop {
                 if sp == 0 {
-                    return;
+                    return false;
                 }
                 sp -= 1;
                 // SAFETY: `sp` was above this entry, so it was written
@@ -637,8 +630,9 @@ mod tests {
     fn walk_equals_brute_force_through_stacked_far_cells() {
         // Four cells along x, [0, .25] [.25, .5] [.5, .75] [.75, 1]: depth 2,
         // so far cells wait on the stack. The triangles straddle the split
-        // planes (one lies in x = 0.5); each leaf lists them all, so the
-        // tree is exact and the walk's order and stack are under test.
+        // planes (one lies in x = 0.5) and each leaf lists exactly those
+        // its cell's slab touches, so a far cell the walk dropped or popped
+        // wrongly loses hits.
         let tri = |x0: f32, x1: f32, y: f32| Triangle {
             v: [[x0, y, 0.1], [x1, y, 0.9], [x1, 1.0 - y, 0.5]],
         };
@@ -649,21 +643,23 @@ mod tests {
             tri(0.05, 0.95, 0.4),
         ];
         let split = |s, c| Node::interior(Axis::X, s, c).unwrap();
-        let all = Node::leaf(4, 0).unwrap();
+        let leaf = |count, at| Node::leaf(count, at).unwrap();
+        // x ranges: 0 [.1, .6], 1 [.3, .9], 2 [.5, .5], 3 [.05, .95].
+        let prims = [0, 3, 0, 1, 2, 3, 1, 3];
         let nodes = [
             split(0.5, 1),
             split(0.25, 3),
             split(0.75, 5),
-            all,
-            all,
-            all,
-            all,
+            leaf(2, 0),
+            leaf(4, 2),
+            leaf(4, 2),
+            leaf(2, 6),
         ];
         let bounds = Bounds {
             min: [0.0; 3],
             max: [1.0; 3],
         };
-        let tree = TriangleTree::from_parts(&nodes, &[0, 1, 2, 3], &tris, bounds).unwrap();
+        let tree = TriangleTree::from_parts(&nodes, &prims, &tris, bounds).unwrap();
         let mut seed = 0x9E37_79B9_7F4A_7C15u64;
         let mut f = || {
             seed ^= seed << 13;

@@ -151,8 +151,8 @@ impl ShearedRay {
         let mut u = cx * by - cy * bx;
         let mut v = ax * cy - ay * cx;
         let mut w = bx * ay - by * ax;
-        // `|` and `&` rather than `||` and `&&`: one branch each instead of
-        // three (a NaN edge function passes both tests, then fails on det).
+        // `|` and `&`: all three signs are tested, no early exit (a NaN
+        // edge function passes both tests, then fails on det).
         if (u == 0.0) | (v == 0.0) | (w == 0.0) {
             [u, v, w] = edge_functions_f64([ax, ay, bx, by, cx, cy]);
         }

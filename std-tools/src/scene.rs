@@ -80,21 +80,37 @@ fn rect(a: [f32; 3], b: [f32; 3]) -> [Triangle; 2] {
     [Triangle { v: [p0, p1, p2] }, Triangle { v: [p0, p2, p3] }]
 }
 
+/// The bounding box of `triangles`.
+#[must_use]
+pub fn bounds_of(triangles: &[Triangle]) -> Aabb {
+    triangles
+        .iter()
+        .fold(Aabb::EMPTY, |b, t| b.union(&Aabb::of_triangle(t)))
+}
+
+/// A closed box on the floor `y = 0`: `2 * half` wide in x and z, `height`
+/// tall (floor, ceiling, four walls; 12 triangles).
+fn closed_box(half: f32, height: f32) -> Vec<Triangle> {
+    let (s, h) = (half, height);
+    [
+        rect([-s, 0.0, -s], [s, 0.0, s]),
+        rect([-s, h, -s], [s, h, s]),
+        rect([-s, 0.0, -s], [-s, h, s]),
+        rect([s, 0.0, -s], [s, h, s]),
+        rect([-s, 0.0, -s], [s, h, -s]),
+        rect([-s, 0.0, s], [s, h, s]),
+    ]
+    .concat()
+}
+
 /// The built-in teapot-in-a-stadium scene (deterministic).
 #[must_use]
 pub fn teapot_in_stadium() -> Scene {
     let mut triangles = tube(1024, 16, 0.18);
-    let focus = triangles
-        .iter()
-        .fold(Aabb::EMPTY, |b, t| b.union(&Aabb::of_triangle(t)));
+    let focus = bounds_of(&triangles);
     let s = 100.0;
     // The stadium: floor, four walls and a ceiling, a hundred knots wide.
-    triangles.extend(rect([-s, 0.0, -s], [s, 0.0, s]));
-    triangles.extend(rect([-s, s, -s], [s, s, s]));
-    triangles.extend(rect([-s, 0.0, -s], [-s, s, s]));
-    triangles.extend(rect([s, 0.0, -s], [s, s, s]));
-    triangles.extend(rect([-s, 0.0, -s], [s, s, -s]));
-    triangles.extend(rect([-s, 0.0, s], [s, s, s]));
+    triangles.extend(closed_box(s, s));
     // Bleachers: long, thin, axis-aligned steps along two sides.
     for step in 0..40 {
         let h = 1.0 + step as f32;
@@ -112,9 +128,7 @@ pub fn teapot_in_stadium() -> Scene {
 /// teapot-in-a-stadium of `anchors/embree/gen_stadium.py`, focus = the mesh.
 #[must_use]
 pub fn in_stadium(mesh: &[Triangle]) -> Scene {
-    let b = mesh
-        .iter()
-        .fold(Aabb::EMPTY, |b, t| b.union(&Aabb::of_triangle(t)));
+    let b = bounds_of(mesh);
     let extent = (0..3).fold(0.0f32, |m, a| m.max(b.max[a] - b.min[a]));
     let scale = 1.0 / extent.max(f32::MIN_POSITIVE);
     let centre = [
@@ -130,16 +144,8 @@ pub fn in_stadium(mesh: &[Triangle]) -> Scene {
                 .map(|p| std::array::from_fn(|a| (p[a] - centre[a]) * scale + lift[a])),
         })
         .collect();
-    let focus = triangles
-        .iter()
-        .fold(Aabb::EMPTY, |b, t| b.union(&Aabb::of_triangle(t)));
-    let (s, h) = (500.0, 200.0);
-    triangles.extend(rect([-s, 0.0, -s], [s, 0.0, s]));
-    triangles.extend(rect([-s, h, -s], [s, h, s]));
-    triangles.extend(rect([-s, 0.0, -s], [-s, h, s]));
-    triangles.extend(rect([s, 0.0, -s], [s, h, s]));
-    triangles.extend(rect([-s, 0.0, -s], [s, h, -s]));
-    triangles.extend(rect([-s, 0.0, s], [s, h, s]));
+    let focus = bounds_of(&triangles);
+    triangles.extend(closed_box(500.0, 200.0));
     Scene { triangles, focus }
 }
 
@@ -165,8 +171,6 @@ pub fn needles(n: usize) -> Scene {
             Triangle { v }
         })
         .collect();
-    let focus = triangles
-        .iter()
-        .fold(Aabb::EMPTY, |b, t| b.union(&Aabb::of_triangle(t)));
+    let focus = bounds_of(&triangles);
     Scene { triangles, focus }
 }

@@ -12,10 +12,10 @@
 use super::CmdResult;
 use kdray_kernel::{Hit, Ray};
 use kdray_tools::blob::write_triangle_tree;
-use kdray_tools::build::{build_monitored, Aabb, BuildMonitor, BuildParams, BuilderKind};
+use kdray_tools::build::{build_monitored, BuildMonitor, BuildParams, BuilderKind};
 use kdray_tools::camera::{random_rays, Camera};
 use kdray_tools::mesh;
-use kdray_tools::scene::{in_stadium, needles, teapot_in_stadium, Scene};
+use kdray_tools::scene::{bounds_of, in_stadium, needles, teapot_in_stadium, Scene};
 use kdray_tools::stats::{tree_stats, CostModel};
 use kdray_tools::trace::{trace_serial, PacketWidth, Query};
 use std::path::Path;
@@ -53,9 +53,7 @@ fn scene(spec: &str) -> Result<(String, Scene), Box<dyn std::error::Error>> {
         return Ok((format!("{}-in-stadium", file_stem(path)), in_stadium(&m)));
     }
     let triangles = mesh::load(Path::new(spec))?;
-    let focus = triangles
-        .iter()
-        .fold(Aabb::EMPTY, |b, t| b.union(&Aabb::of_triangle(t)));
+    let focus = bounds_of(&triangles);
     Ok((file_stem(spec), Scene { triangles, focus }))
 }
 
@@ -95,13 +93,9 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     for spec in &a.scenes {
         let (name, s) = scene(spec)?;
         let tris = &s.triangles;
-        let bounds = tris
-            .iter()
-            .fold(Aabb::EMPTY, |b, t| b.union(&Aabb::of_triangle(t)));
         let side = (a.rays as f64).sqrt() as u32;
         let camera = Camera::framing(&s.focus).rays(side, side);
         let random = random_rays(&s.focus, a.rays, 7);
-        let _ = bounds;
         for &kind in &kinds {
             let (mut best_ms, mut built, mut peak) = (f64::INFINITY, None, 0);
             for _ in 0..a.repeat.max(1) {

@@ -2,6 +2,7 @@
 //! traversal-cost heatmap of a mesh or a tree blob.
 
 use super::progress::counted_bar;
+use super::trace::parse_width;
 use super::{thread_pool, CmdResult};
 use glam::Vec3;
 use kdray_kernel::PacketWidth;
@@ -42,8 +43,8 @@ pub(crate) struct Args {
     #[arg(long)]
     heatmap: bool,
     /// Rays per packet: 1, 4 (2x2 pixel tiles) or 8 (4x2 tiles).
-    #[arg(long, default_value_t = 8, value_parser = parse_packet)]
-    packet: usize,
+    #[arg(long, default_value = "8", value_parser = parse_width)]
+    packet: PacketWidth,
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
@@ -59,13 +60,6 @@ fn parse_vec3(s: &str) -> Result<Vec3, String> {
         [x, y, z] if parts.iter().all(|v| v.is_finite()) => Ok(Vec3::new(x, y, z)),
         _ => Err(format!("{s:?}: want three finite numbers x,y,z")),
     }
-}
-
-fn parse_packet(s: &str) -> Result<usize, String> {
-    s.parse::<usize>()
-        .ok()
-        .filter(|n| PacketWidth::from_lanes(*n).is_some())
-        .ok_or_else(|| format!("{s:?}: packet width must be 1, 4 or 8"))
 }
 
 /// A tree blob from `path`: read when it is a `.kdt`, else the mesh
@@ -101,7 +95,6 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         return Err("--fov must be between 0 and 180 degrees".into());
     }
     let params = RenderParams::new(camera, a.width, a.height, &scene);
-    let width = PacketWidth::from_lanes(a.packet).unwrap_or_default();
     let t = Instant::now();
     let image = if a.heatmap {
         let bar = counted_bar(u64::from(a.height));
@@ -115,8 +108,11 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         );
         h.image
     } else {
-        let bar = counted_bar(bands(a.height, width));
-        let tracer = TreeTracer { tree: &tree, width };
+        let bar = counted_bar(bands(a.height, a.packet));
+        let tracer = TreeTracer {
+            tree: &tree,
+            width: a.packet,
+        };
         let img = pool.install(|| render(&tracer, &params, &|| bar.inc(1)));
         bar.finish_and_clear();
         img
@@ -131,7 +127,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         if a.heatmap {
             "single rays, counted".to_string()
         } else {
-            format!("packets of {}", a.packet)
+            format!("packets of {}", a.packet.lanes())
         },
         pool.current_num_threads(),
         seconds * 1e3,

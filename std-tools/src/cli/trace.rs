@@ -114,8 +114,8 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     Ok(())
 }
 
-/// `--packet`: 1, 4 or 8.
-fn parse_width(s: &str) -> Result<PacketWidth, String> {
+/// `--packet` (of `trace` and `render`): 1, 4 or 8.
+pub(super) fn parse_width(s: &str) -> Result<PacketWidth, String> {
     s.parse()
         .ok()
         .and_then(PacketWidth::from_lanes)

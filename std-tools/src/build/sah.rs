@@ -416,15 +416,14 @@ impl Splitter for EventSah<'_> {
 
     fn bytes(&self, set: &Cell) -> usize {
         match set {
-            Cell::Boxes(items) => items.capacity() * std::mem::size_of::<Item>(),
+            Cell::Boxes(items) => boxes::bytes(items),
             Cell::Events(ev) => ev.ev.capacity() * 8,
         }
     }
 
     fn prims(&self, set: Cell) -> Vec<u32> {
         match set {
-            // Partitions keep the root's index order: already sorted.
-            Cell::Boxes(items) => items.into_iter().map(|i| i.tri).collect(),
+            Cell::Boxes(items) => boxes::prims(items),
             Cell::Events(ev) => {
                 let mut p: Vec<u32> = ev
                     .axis(0)

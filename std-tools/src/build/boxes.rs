@@ -65,12 +65,11 @@ impl Splitter for BoxSplitter<'_> {
     }
 
     fn bytes(&self, set: &Vec<Item>) -> usize {
-        set.capacity() * std::mem::size_of::<Item>()
+        bytes(set)
     }
 
     fn prims(&self, set: Vec<Item>) -> Vec<u32> {
-        // Partitions keep the root's index order: already sorted.
-        set.into_iter().map(|i| i.tri).collect()
+        prims(set)
     }
 
     fn choose(&self, set: &Vec<Item>, cell: &Aabb) -> Option<Choice> {
@@ -89,6 +88,17 @@ impl Splitter for BoxSplitter<'_> {
         }
         partition(set, c, |it| cut_box(&it.b, cell, c.axis, c.pos))
     }
+}
+
+/// The working-set bytes of a cell's items.
+pub(super) fn bytes(items: &Vec<Item>) -> usize {
+    items.capacity() * std::mem::size_of::<Item>()
+}
+
+/// A leaf's triangles: partitions keep the root's index order, so the
+/// items are already sorted.
+pub(super) fn prims(items: Vec<Item>) -> Vec<u32> {
+    items.into_iter().map(|i| i.tri).collect()
 }
 
 /// The items of the cells below and above the plane of `c` (module docs),

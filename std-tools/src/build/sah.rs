@@ -94,26 +94,25 @@ impl Events {
     /// The events of `items`, sorted (one sort per axis; keys are unique,
     /// so the order does not depend on the sort).
     fn of_items(items: &[Item]) -> Events {
-        let axis_events = |axis: usize| {
-            let mut ev = Vec::with_capacity(2 * items.len());
+        // Written in place, run after run: no per-axis buffers to copy.
+        let mut ev = Vec::with_capacity(6 * items.len());
+        let mut starts = [0; 2];
+        for axis in 0..3 {
+            let from = ev.len();
+            if axis > 0 {
+                starts[axis - 1] = from;
+            }
             for it in items {
                 events::push(&mut ev, &it.b, axis, it.tri);
             }
-            ev.sort_unstable();
-            ev
-        };
-        Events::of_runs([0, 1, 2].map(axis_events), items.len())
-    }
-
-    /// The cell made of the three runs, in axis order.
-    fn of_runs(runs: [Vec<u64>; 3], n: usize) -> Events {
-        let [x, y, z] = runs;
-        let starts = [x.len(), x.len() + y.len()];
-        let mut ev = Vec::with_capacity(starts[1] + z.len());
-        for run in [x, y, z] {
-            ev.extend_from_slice(&run);
+            ev[from..].sort_unstable();
         }
-        Events { ev, starts, n }
+        ev.shrink_to_fit();
+        Events {
+            ev,
+            starts,
+            n: items.len(),
+        }
     }
 }
 
@@ -417,15 +416,14 @@ impl Splitter for EventSah<'_> {
 
     fn bytes(&self, set: &Cell) -> usize {
         match set {
-            Cell::Boxes(items) => items.capacity() * std::mem::size_of::<Item>(),
+            Cell::Boxes(items) => boxes::bytes(items),
             Cell::Events(ev) => ev.ev.capacity() * 8,
         }
     }
 
     fn prims(&self, set: Cell) -> Vec<u32> {
         match set {
-            // Partitions keep the root's index order: already sorted.
-            Cell::Boxes(items) => items.into_iter().map(|i| i.tri).collect(),
+            Cell::Boxes(items) => boxes::prims(items),
             Cell::Events(ev) => {
                 let mut p: Vec<u32> = ev
                     .axis(0)

@@ -121,9 +121,7 @@ impl<S: Splitter> Walk<'_, S> {
             self.monitor.finished(units);
             let mut prims = self.s.prims(below);
             prims.extend(self.s.prims(above));
-            prims.sort_unstable();
-            prims.dedup();
-            return (BuildNode::Leaf(prims), leaf_cost);
+            return (merged_leaf(prims), leaf_cost);
         }
         let ub = if nb + na == 0 {
             units / 2
@@ -148,9 +146,7 @@ impl<S: Splitter> Walk<'_, S> {
             let mut prims = Vec::new();
             below.collect_prims(&mut prims);
             above.collect_prims(&mut prims);
-            prims.sort_unstable();
-            prims.dedup();
-            return (BuildNode::Leaf(prims), leaf_cost);
+            return (merged_leaf(prims), leaf_cost);
         }
         let axis = Axis::from_index(c.axis).unwrap_or(Axis::X);
         let node = BuildNode::Interior {
@@ -167,4 +163,11 @@ impl<S: Splitter> Walk<'_, S> {
         self.monitor.finished(units);
         BuildNode::Leaf(self.s.prims(set))
     }
+}
+
+/// One leaf of the children's triangles (a straddler is in both: once).
+fn merged_leaf(mut prims: Vec<u32>) -> BuildNode {
+    prims.sort_unstable();
+    prims.dedup();
+    BuildNode::Leaf(prims)
 }

@@ -143,6 +143,13 @@ impl Node {
         self.word1 & 3 == LEAF_TAG
     }
 
+    /// Is this a leaf with no primitives (an empty cell)?
+    #[inline(always)]
+    #[must_use]
+    pub const fn is_empty_leaf(self) -> bool {
+        self.word1 == LEAF_TAG
+    }
+
     /// The split axis index 0..=2 (3 for a leaf).
     #[inline(always)]
     #[must_use]

@@ -75,6 +75,9 @@ trait Visit<'a, V> {
     /// `(node, lo, hi)`, its interval widened by the slack as the scalar
     /// loop keeps it.
     fn single(&mut self, l: usize, start: (u32, f32, f32)) -> Option<(V, u32)>;
+    /// Each lane's best `t` and the lanes still searching, as `leaf` and
+    /// `single` return them.
+    fn state(&self) -> Option<(V, u32)>;
 }
 
 /// The closest-hit search: each lane's [`Closest`] kept in lanes (the
@@ -180,6 +183,11 @@ impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for ClosestLanes<'_, 'a, V, N
                 w &= w - 1;
             }
         }
+        self.state()
+    }
+
+    #[inline(always)]
+    fn state(&self) -> Option<(V, u32)> {
         Some((self.t, self.lr.active))
     }
 
@@ -196,7 +204,7 @@ impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for ClosestLanes<'_, 'a, V, N
             // Equal t then compares against this lane's prim.
             self.found |= u32::from(best.prim != MISS) << l;
         }
-        Some((self.t, self.lr.active))
+        self.state()
     }
 }
 
@@ -207,15 +215,13 @@ struct AnyLanes<'t, 'a, V, const N: usize> {
     occluded: u32,
 }
 
-impl<'a, V: Lanes<N>, const N: usize> AnyLanes<'_, 'a, V, N> {
+impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for AnyLanes<'_, 'a, V, N> {
     #[inline(always)]
     fn state(&self) -> Option<(V, u32)> {
         let alive = self.lr.active & !self.occluded;
         (alive != 0).then_some((self.lr.tmax, alive))
     }
-}
 
-impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for AnyLanes<'_, 'a, V, N> {
     #[inline(always)]
     fn leaf(&mut self, prims: LeafIter<'a>, lanes: u32) -> Option<(V, u32)> {
         let mut open = lanes & !self.occluded;
@@ -336,6 +342,15 @@ impl<'a> TriangleTree<'a> {
                 // the bits flipped.
                 let first = node.first_child(lr.above_first_nibbles);
                 let second = node.first_child(!lr.above_first_nibbles);
+                // An empty cell has nothing to test: its lanes skip it here
+                // rather than step into it and pop back out.
+                let empty = |c: u32| {
+                    self.nodes
+                        .get(c as usize)
+                        .is_some_and(|n| n.is_empty_leaf())
+                };
+                let near = if empty(first) { 0 } else { near };
+                let far = if empty(second) { 0 } else { far };
                 let far_lo = lo.far_lo(t_split, s2);
                 // Push the far child unconditionally and keep it only when
                 // the packet visits both children (the single ray's way:
@@ -350,12 +365,16 @@ impl<'a> TriangleTree<'a> {
                     hi,
                 };
                 if near == 0 {
-                    (node_idx, lanes, lo) = (second, far, far_lo);
+                    if far != 0 {
+                        (node_idx, lanes, lo) = (second, far, far_lo);
+                        continue;
+                    }
+                    visit.state()
+                } else {
+                    sp += usize::from(far != 0);
+                    (node_idx, lanes, hi) = (first, near, hi.near_hi(t_split, s2));
                     continue;
                 }
-                sp += usize::from(far != 0);
-                (node_idx, lanes, hi) = (first, near, hi.near_hi(t_split, s2));
-                continue;
             } else {
                 // A leaf: test its triangles against the lanes' own intervals.
                 visit.leaf(LeafIter::new(self.leaf_prims(*node)), lanes)

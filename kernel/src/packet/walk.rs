@@ -314,10 +314,10 @@ impl<'a> TriangleTree<'a> {
             }
             return;
         }
+        let Some(mut node) = self.nodes.get(node_idx as usize).copied() else {
+            return;
+        };
         loop {
-            let Some(node) = self.nodes.get(node_idx as usize) else {
-                return;
-            };
             let axis = node.axis_bits();
             let step = if lanes & lanes.wrapping_sub(1) == 0 {
                 // One lane left in this subtree: it finishes as a single
@@ -342,15 +342,24 @@ impl<'a> TriangleTree<'a> {
                 // the bits flipped.
                 let first = node.first_child(lr.above_first_nibbles);
                 let second = node.first_child(!lr.above_first_nibbles);
-                // An empty cell has nothing to test: its lanes skip it here
-                // rather than step into it and pop back out.
-                let empty = |c: u32| {
-                    self.nodes
-                        .get(c as usize)
-                        .is_some_and(|n| n.is_empty_leaf())
+                // Both children in one load (they sit side by side): the
+                // next step needs one of them, and an empty cell has
+                // nothing to test, so its lanes skip it here rather than
+                // step into it and pop back out.
+                let Some(&[below, above]) = self
+                    .nodes
+                    .get(node.upper() as usize..)
+                    .and_then(|c| c.first_chunk())
+                else {
+                    return;
                 };
-                let near = if empty(first) { 0 } else { near };
-                let far = if empty(second) { 0 } else { far };
+                let (near_node, far_node) = if first == node.upper() {
+                    (below, above)
+                } else {
+                    (above, below)
+                };
+                let near = if near_node.is_empty_leaf() { 0 } else { near };
+                let far = if far_node.is_empty_leaf() { 0 } else { far };
                 let far_lo = lo.far_lo(t_split, s2);
                 // Push the far child unconditionally and keep it only when
                 // the packet visits both children (the single ray's way:
@@ -366,18 +375,18 @@ impl<'a> TriangleTree<'a> {
                 };
                 if near == 0 {
                     if far != 0 {
-                        (node_idx, lanes, lo) = (second, far, far_lo);
+                        (node_idx, node, lanes, lo) = (second, far_node, far, far_lo);
                         continue;
                     }
                     visit.state()
                 } else {
                     sp += usize::from(far != 0);
-                    (node_idx, lanes, hi) = (first, near, hi.near_hi(t_split, s2));
+                    (node_idx, node, lanes, hi) = (first, near_node, near, hi.near_hi(t_split, s2));
                     continue;
                 }
             } else {
                 // A leaf: test its triangles against the lanes' own intervals.
-                visit.leaf(LeafIter::new(self.leaf_prims(*node)), lanes)
+                visit.leaf(LeafIter::new(self.leaf_prims(node)), lanes)
             };
             let Some((best_t, alive)) = step else {
                 return;
@@ -394,6 +403,10 @@ impl<'a> TriangleTree<'a> {
                 let open = p.lanes & alive & p.lo.le(cutoff);
                 if open != 0 {
                     (node_idx, lanes, lo, hi) = (p.node, open, p.lo, p.hi.min(cutoff));
+                    let Some(&n) = self.nodes.get(node_idx as usize) else {
+                        return;
+                    };
+                    node = n;
                     break;
                 }
             }

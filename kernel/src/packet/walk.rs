@@ -29,6 +29,7 @@
 
 use super::lane_rays::LaneRays;
 use super::lanes::Lanes;
+use crate::node::Node;
 use crate::ray::{Hit, MISS};
 use crate::traverse::{Closest, LeafIter};
 use crate::tree::{TriangleTree, MAX_DEPTH};
@@ -353,10 +354,12 @@ impl<'a> TriangleTree<'a> {
                 else {
                     return;
                 };
-                let (near_node, far_node) = if first == node.upper() {
-                    (below, above)
+                // Selected as whole 8-byte words: one conditional move each.
+                let [below, above]: [u64; 2] = [below, above].map(bytemuck::cast);
+                let (near_node, far_node): (Node, Node) = if first == node.upper() {
+                    (bytemuck::cast(below), bytemuck::cast(above))
                 } else {
-                    (above, below)
+                    (bytemuck::cast(above), bytemuck::cast(below))
                 };
                 let near = if near_node.is_empty_leaf() { 0 } else { near };
                 let far = if far_node.is_empty_leaf() { 0 } else { far };

@@ -25,13 +25,16 @@ pub(crate) struct LaneHits<V> {
 
 impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
     /// Vertex `p` relative to each lane's origin, sheared so the lane's
-    /// ray runs along +z: `(q[kx] - sx q[kz], q[ky] - sy q[kz], q[kz])`.
+    /// ray runs along +z: `(q[kx] - sx q[kz], q[ky] - sy q[kz], q[kz])`;
+    /// `k` is [`LaneRays::k_uniform`], passed in by value so that a leaf's
+    /// loop keeps it in registers (read through `self` it was reloaded,
+    /// with its discriminant, for every coordinate of every triangle).
     /// `p` is read in place (a copy indexed by the permuted axes would be
     /// spilled and reloaded across its stores).
     #[inline(always)]
-    fn shear_vertex(&self, p: &[f32; 3]) -> (V, V, V) {
+    fn shear_vertex(&self, k: Option<[usize; 3]>, p: &[f32; 3]) -> (V, V, V) {
         // p[k[j]] per lane; the subtraction is then the scalar q[k[j]].
-        let pk = |j: usize| match self.k_uniform {
+        let pk = |j: usize| match k {
             // k[j] < 3 (`LaneRays::k`): the fallback is never taken.
             Some(k) => V::splat(p.get(k[j]).copied().unwrap_or(f32::NAN)),
             None => {
@@ -47,13 +50,20 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
     }
 
     /// Tests `tri` against the lanes in `live` over each lane's
-    /// `[tmin, tmax]`; `None` when it hits none of them.
+    /// `[tmin, tmax]`; `None` when it hits none of them. `k` is
+    /// [`LaneRays::k_uniform`].
     #[inline(always)]
-    pub(crate) fn intersect(&self, tri: &Triangle, live: u32, tmax: V) -> Option<LaneHits<V>> {
+    pub(crate) fn intersect(
+        &self,
+        k: Option<[usize; 3]>,
+        tri: &Triangle,
+        live: u32,
+        tmax: V,
+    ) -> Option<LaneHits<V>> {
         let sz = self.shear[2];
-        let (ax, ay, az) = self.shear_vertex(&tri.v[0]);
-        let (bx, by, bz) = self.shear_vertex(&tri.v[1]);
-        let (cx, cy, cz) = self.shear_vertex(&tri.v[2]);
+        let (ax, ay, az) = self.shear_vertex(k, &tri.v[0]);
+        let (bx, by, bz) = self.shear_vertex(k, &tri.v[1]);
+        let (cx, cy, cz) = self.shear_vertex(k, &tri.v[2]);
         // 2-D edge functions: u weighs vertex 0, v vertex 1, w vertex 2.
         let mut u = cx * by - cy * bx;
         let mut v = ax * cy - ay * cx;

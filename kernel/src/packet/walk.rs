@@ -150,11 +150,13 @@ impl<V: Lanes<N>, const N: usize> ClosestLanes<'_, '_, V, N> {
 impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for ClosestLanes<'_, 'a, V, N> {
     #[inline(always)]
     fn leaf(&mut self, prims: LeafIter<'a>, lanes: u32) -> Option<(V, u32)> {
+        let (triangles, lr) = (self.tree.triangles, self.lr);
+        let k = lr.k_uniform;
         for p in prims {
-            let Some(tri) = self.tree.triangles.get(p as usize) else {
+            let Some(tri) = triangles.get(p as usize) else {
                 continue;
             };
-            let Some(h) = self.lr.intersect(tri, lanes, self.t) else {
+            let Some(h) = lr.intersect(k, tri, lanes, self.t) else {
                 continue;
             };
             // `Closest::keep` in lanes: the hit lies in [tmin, best t], so
@@ -226,12 +228,13 @@ impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for AnyLanes<'_, 'a, V, N> {
     #[inline(always)]
     fn leaf(&mut self, prims: LeafIter<'a>, lanes: u32) -> Option<(V, u32)> {
         let mut open = lanes & !self.occluded;
+        let k = self.lr.k_uniform;
         for p in prims {
             if open == 0 {
                 break;
             }
             let tri = self.tree.triangles.get(p as usize);
-            if let Some(h) = tri.and_then(|t| self.lr.intersect(t, open, self.lr.tmax)) {
+            if let Some(h) = tri.and_then(|t| self.lr.intersect(k, t, open, self.lr.tmax)) {
                 self.occluded |= h.hit;
                 open &= !h.hit;
             }

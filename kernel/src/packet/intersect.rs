@@ -7,6 +7,7 @@
 
 use super::lane_rays::LaneRays;
 use super::lanes::Lanes;
+use crate::node::Axis;
 use crate::triangle::{edge_functions_f64, Triangle};
 
 /// The lanes a triangle hits, with the unreduced hit of each lane.
@@ -32,11 +33,12 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
     /// `p` is read in place (a copy indexed by the permuted axes would be
     /// spilled and reloaded across its stores).
     #[inline(always)]
-    fn shear_vertex(&self, k: Option<[usize; 3]>, p: &[f32; 3]) -> (V, V, V) {
+    fn shear_vertex(&self, k: Option<[Axis; 3]>, p: &[f32; 3]) -> (V, V, V) {
         // p[k[j]] per lane; the subtraction is then the scalar q[k[j]].
         let pk = |j: usize| match k {
-            // k[j] < 3 (`LaneRays::k`): the fallback is never taken.
-            Some(k) => V::splat(p.get(k[j]).copied().unwrap_or(f32::NAN)),
+            // An `Axis` is below 3, as the compiler knows: no bounds check,
+            // and the fallback is never taken.
+            Some(k) => V::splat(p.get(k[j].index()).copied().unwrap_or(f32::NAN)),
             None => {
                 let [is0, is1] = self.k_is[j];
                 let [x, y, z] = p.map(V::splat);
@@ -55,7 +57,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
     #[inline(always)]
     pub(crate) fn intersect(
         &self,
-        k: Option<[usize; 3]>,
+        k: Option<[Axis; 3]>,
         tri: &Triangle,
         live: u32,
         tmax: V,

@@ -18,7 +18,7 @@
 
 use super::lanes::Lanes;
 use super::Packet;
-use crate::node::Node;
+use crate::node::{Axis, Node};
 use crate::ray::Ray;
 use crate::traverse::{CellRay, SLACK};
 use crate::tree::Bounds;
@@ -54,7 +54,9 @@ pub(crate) struct LaneRays<V, const N: usize> {
     pub(crate) tmax: V,
     /// The permuted axes `[kx, ky, kz]` when all active lanes share them
     /// (the common case for coherent rays): vertices are then splats.
-    pub(crate) k_uniform: Option<[usize; 3]>,
+    /// As axes, whose index the compiler knows is below 3 (a `usize`
+    /// index was bounds-checked for every vertex coordinate).
+    pub(crate) k_uniform: Option<[Axis; 3]>,
     /// `k_is[j][c]`: lanes whose `k[j] == c`, for `c` in 0..2 (else 2).
     pub(crate) k_is: [[V; 2]; 3],
     /// The origin's permuted components `org[k[j]]`.
@@ -294,7 +296,9 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
         self.above_first_nibbles = Node::first_child_mask(above_first);
         self.coherent = self.above_bits.iter().all(|&b| shared(b));
         if self.k_bits.iter().flatten().all(|&b| shared(b)) {
-            self.k_uniform = Some(self.k((active.trailing_zeros() as usize).min(N - 1)));
+            let k = self.k((active.trailing_zeros() as usize).min(N - 1));
+            // `k` holds 0, 1 and 2: `Axis::Z` is never the fallback.
+            self.k_uniform = Some(k.map(|a| Axis::from_index(a).unwrap_or(Axis::Z)));
         }
         self
     }

@@ -17,8 +17,9 @@
 //! single ray skips (cells other lanes open, out to the packet's cutoff per
 //! lane), which cannot change its answer: triangles are tested over the
 //! lane's own `[tmin, best t]` and [`Closest`] does not depend on the order
-//! in which hits arrive. Packets whose lanes disagree on a sign, and lanes
-//! left alone in a subtree, finish as single rays (`Visit::single`).
+//! in which hits arrive. Packets whose lanes disagree on a sign are traced
+//! lane by lane as single rays (`Visit::single`); a coherent packet walks
+//! in lanes to the end, even with one lane left.
 //!
 //! Tried and slower (camera rays on the bunny, one run, pinned): per-lane
 //! near/far for mixed-sign packets (each lane's near child chosen by lane
@@ -33,7 +34,6 @@ use crate::node::Node;
 use crate::ray::{Hit, MISS};
 use crate::traverse::{Closest, LeafIter};
 use crate::tree::{TriangleTree, MAX_DEPTH};
-use crate::triangle::TriangleHit;
 
 /// A far child waiting on the stack with its lanes and their intervals
 /// (widened by the slack, as the single ray keeps them).
@@ -66,7 +66,7 @@ impl<V: Copy> LaneStack<V> {
     }
 }
 
-/// What the packet loop does at a leaf and for a lone lane. Both return
+/// What the packet loop does at a leaf and for a lane traced alone. Both return
 /// each lane's best `t` (cells starting more than the slack beyond it are
 /// skipped) and the lanes still searching, or `None` when all are done.
 trait Visit<'a, V> {
@@ -83,45 +83,27 @@ trait Visit<'a, V> {
 
 /// The closest-hit search: each lane's [`Closest`] kept in lanes (the
 /// best `t` and the winning hit's edge functions), so a leaf's hits update
-/// all lanes with a few selects; a lane finished as a single ray keeps its
-/// scalar `Closest` until a packet hit beats it.
+/// all lanes with a few selects. The lanes of an incoherent packet, traced
+/// as single rays, keep their scalar `Closest`.
 struct ClosestLanes<'t, 'a, V, const N: usize> {
     tree: &'t TriangleTree<'a>,
     lr: &'t LaneRays<V, N>,
     /// Each lane's best `t` (its `tmax` before any hit).
     t: V,
-    /// The best hit's `v`, `w` and `det` ([`TriangleHit`]).
+    /// The best hit's `v`, `w` and `det` ([`TriangleHit`](crate::triangle::TriangleHit)).
     vwd: [V; 3],
     /// The best triangle of each lane ([`MISS`] before any hit).
     prim: [u32; N],
     /// Lanes with a hit.
     found: u32,
-    /// Lanes whose best is `alone[l]`, from a single-ray finish.
+    /// Lanes traced as single rays, whose answer is `alone[l]`.
     alone_bits: u32,
     alone: [Closest; N],
 }
 
 impl<V: Lanes<N>, const N: usize> ClosestLanes<'_, '_, V, N> {
-    /// Lane `l`'s search as the single ray holds it.
-    #[inline]
-    fn closest(&self, l: usize) -> Closest {
-        if self.alone_bits >> l & 1 == 1 {
-            if let Some(c) = self.alone.get(l) {
-                return *c;
-            }
-        }
-        let t = self.t.lane(l);
-        let mut c = Closest::new(t);
-        if let (true, Some(&prim)) = (self.found >> l & 1 == 1, self.prim.get(l)) {
-            let [v, w, det] = self.vwd.each_ref().map(|x| x.lane(l));
-            // At equal t a found triangle (index below MISS) is kept.
-            c.keep(TriangleHit { t, v, w, det }, prim);
-        }
-        c
-    }
-
-    /// Each lane's answer: `TriangleHit::to_hit` in lanes (its two
-    /// divisions for all lanes at once), or the lone lane's own `Closest`.
+    /// Each lane's answer: [`TriangleHit::to_hit`](crate::triangle::TriangleHit::to_hit) in lanes (its two
+    /// divisions for all lanes at once), or a single ray's own `Closest`.
     #[inline(always)]
     fn hits(&self) -> [Hit; N] {
         let [v, w, det] = self.vwd;
@@ -132,7 +114,7 @@ impl<V: Lanes<N>, const N: usize> ClosestLanes<'_, '_, V, N> {
         );
         core::array::from_fn(|l| {
             if alone >> l & 1 == 1 {
-                self.closest(l).hit()
+                self.alone.get(l).map_or(Hit::MISS, Closest::hit)
             } else if found >> l & 1 == 1 {
                 Hit {
                     t: self.t.lane(l),
@@ -177,7 +159,7 @@ impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for ClosestLanes<'_, 'a, V, N
             self.t = V::select(m, h.t, self.t);
             self.vwd = [(h.v, self.vwd[0]), (h.w, self.vwd[1]), (h.det, self.vwd[2])]
                 .map(|(new, old)| V::select(m, new, old));
-            (self.found, self.alone_bits) = (self.found | wins, self.alone_bits & !wins);
+            self.found |= wins;
             let mut w = wins;
             while w != 0 {
                 if let Some(b) = self.prim.get_mut(w.trailing_zeros() as usize) {
@@ -196,16 +178,13 @@ impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for ClosestLanes<'_, 'a, V, N
 
     #[inline(always)]
     fn single(&mut self, l: usize, start: (u32, f32, f32)) -> Option<(V, u32)> {
-        let mut best = self.closest(l);
         let one = self.lr.single(l);
+        let mut best = Closest::new(one.tmax);
         self.tree
             .closest_from(&one.sr, &one.cr, one.tmin, &mut best, start, &mut ());
-        if let (Some(a), Some(b)) = (self.alone.get_mut(l), self.prim.get_mut(l)) {
-            (*a, *b) = (best, best.prim);
-            self.t = V::select(V::mask(1 << l), V::splat(best.t), self.t);
+        if let Some(a) = self.alone.get_mut(l) {
+            *a = best;
             self.alone_bits |= 1 << l;
-            // Equal t then compares against this lane's prim.
-            self.found |= u32::from(best.prim != MISS) << l;
         }
         self.state()
     }
@@ -294,7 +273,8 @@ impl<'a> TriangleTree<'a> {
         visit.occluded
     }
 
-    /// The packet loop: `visit` tests leaves and finishes lone lanes.
+    /// The packet loop: `visit` tests leaves (and traces the lanes of an
+    /// incoherent packet alone).
     #[inline(always)]
     fn walk_lanes<V: Lanes<N>, const N: usize>(
         &self,
@@ -304,7 +284,7 @@ impl<'a> TriangleTree<'a> {
     ) {
         let s2 = lr.s2;
         let mut sp = 0usize;
-        let (mut node_idx, mut lanes, mut lo, mut hi) = (0u32, lr.active, lr.lo, lr.hi);
+        let (mut lanes, mut lo, mut hi) = (lr.active, lr.lo, lr.hi);
         if lanes == 0 {
             return;
         }
@@ -318,21 +298,18 @@ impl<'a> TriangleTree<'a> {
             }
             return;
         }
-        let Some(mut node) = self.nodes.get(node_idx as usize).copied() else {
+        let Some(mut node) = self.nodes.first().copied() else {
             return;
         };
         loop {
             let axis = node.axis_bits();
-            let step = if lanes & lanes.wrapping_sub(1) == 0 {
-                // One lane left in this subtree: it finishes as a single
-                // ray, whose step costs less than a packet step
-                // (measured on the bunny, `kdray trace` on
-                // `primary_tiled.rays`, interleaved: finishing up to 2
-                // lanes alone ran at 12.8 vs 14.4 Mrays/s 8-wide, 8.0 vs
-                // 9.7 4-wide).
-                let l = lanes.trailing_zeros() as usize;
-                visit.single(l, (node_idx, lo.lane(l), hi.lane(l)))
-            } else if let (Some(&org), Some(&inv)) = (lr.org.get(axis), lr.inv.get(axis)) {
+            // Even one lane left in a subtree walks on in lanes: finishing
+            // it as a single ray (its own set-up and stack) cost more than
+            // the packet steps it saved once empty cells were skipped at
+            // their parent (bunny camera tiles, task-clock, interleaved:
+            // 8-wide 712 -> 687 ms, 4-wide 1081 -> 964 ms; before that
+            // skip, finishing one lane alone had paid).
+            let step = if let (Some(&org), Some(&inv)) = (lr.org.get(axis), lr.inv.get(axis)) {
                 // Compute parametric distance along each lane to the split plane.
                 let t_split = (V::splat(node.split()) - org) * inv;
                 // The single ray's rule lane by lane (`traverse.rs`): a
@@ -381,13 +358,13 @@ impl<'a> TriangleTree<'a> {
                 };
                 if near == 0 {
                     if far != 0 {
-                        (node_idx, node, lanes, lo) = (second, far_node, far, far_lo);
+                        (node, lanes, lo) = (far_node, far, far_lo);
                         continue;
                     }
                     visit.state()
                 } else {
                     sp += usize::from(far != 0);
-                    (node_idx, node, lanes, hi) = (first, near_node, near, hi.near_hi(t_split, s2));
+                    (node, lanes, hi) = (near_node, near, hi.near_hi(t_split, s2));
                     continue;
                 }
             } else {
@@ -408,8 +385,8 @@ impl<'a> TriangleTree<'a> {
                 let p = stack[sp];
                 let open = p.lanes & alive & p.lo.le(cutoff);
                 if open != 0 {
-                    (node_idx, lanes, lo, hi) = (p.node, open, p.lo, p.hi.min(cutoff));
-                    let Some(&n) = self.nodes.get(node_idx as usize) else {
+                    (lanes, lo, hi) = (open, p.lo, p.hi.min(cutoff));
+                    let Some(&n) = self.nodes.get(p.node as usize) else {
                         return;
                     };
                     node = n;

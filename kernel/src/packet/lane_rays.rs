@@ -317,6 +317,25 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
         })
     }
 
+    /// `one(lane, start)` for each active lane, traced alone from the root
+    /// (`start`: the root and the lane's interval), `none` for the others:
+    /// lanes that disagree on a near child do not walk together, and a
+    /// packet of random rays costs its single rays, not more.
+    #[inline(always)]
+    pub(crate) fn alone<T: Copy>(
+        &self,
+        none: T,
+        one: impl Fn(&Single, (u32, f32, f32)) -> T,
+    ) -> [T; N] {
+        core::array::from_fn(|l| {
+            if self.active >> l & 1 == 1 {
+                one(&self.single(l), (0, self.lo.lane(l), self.hi.lane(l)))
+            } else {
+                none
+            }
+        })
+    }
+
     /// Lane `l` as its single ray prepares it.
     #[inline]
     pub(crate) fn single(&self, l: usize) -> Single {

@@ -66,25 +66,19 @@ impl<V: Copy> LaneStack<V> {
     }
 }
 
-/// What the packet loop does at a leaf and for a lane traced alone. Both return
-/// each lane's best `t` (cells starting more than the slack beyond it are
-/// skipped) and the lanes still searching, or `None` when all are done.
+/// What the packet loop does at a leaf. Both methods return each lane's
+/// best `t` (cells starting more than the slack beyond it are skipped)
+/// and the lanes still searching, or `None` when all are done.
 trait Visit<'a, V> {
     /// Tests a leaf's primitives against `lanes`.
     fn leaf(&mut self, prims: LeafIter<'a>, lanes: u32) -> Option<(V, u32)>;
-    /// Finishes lane `l` as a single ray through the subtree
-    /// `(node, lo, hi)`, its interval widened by the slack as the scalar
-    /// loop keeps it.
-    fn single(&mut self, l: usize, start: (u32, f32, f32)) -> Option<(V, u32)>;
-    /// Each lane's best `t` and the lanes still searching, as `leaf` and
-    /// `single` return them.
+    /// The state `leaf` returns, with no new leaf tested.
     fn state(&self) -> Option<(V, u32)>;
 }
 
 /// The closest-hit search: each lane's [`Closest`] kept in lanes (the
 /// best `t` and the winning hit's edge functions), so a leaf's hits update
-/// all lanes with a few selects. The lanes of an incoherent packet, traced
-/// as single rays, keep their scalar `Closest`.
+/// all lanes with a few selects.
 struct ClosestLanes<'t, 'a, V, const N: usize> {
     tree: &'t TriangleTree<'a>,
     lr: &'t LaneRays<V, N>,
@@ -96,26 +90,18 @@ struct ClosestLanes<'t, 'a, V, const N: usize> {
     prim: [u32; N],
     /// Lanes with a hit.
     found: u32,
-    /// Lanes traced as single rays, whose answer is `alone[l]`.
-    alone_bits: u32,
-    alone: [Closest; N],
 }
 
 impl<V: Lanes<N>, const N: usize> ClosestLanes<'_, '_, V, N> {
-    /// Each lane's answer: [`TriangleHit::to_hit`](crate::triangle::TriangleHit::to_hit) in lanes (its two
-    /// divisions for all lanes at once), or a single ray's own `Closest`.
+    /// Each lane's answer: [`TriangleHit::to_hit`](crate::triangle::TriangleHit::to_hit)
+    /// in lanes (its two divisions for all lanes at once).
     #[inline(always)]
     fn hits(&self) -> [Hit; N] {
         let [v, w, det] = self.vwd;
         let (u, v) = (v / det, w / det);
-        let (alone, found) = (
-            self.lr.active & self.alone_bits,
-            self.lr.active & self.found,
-        );
+        let found = self.lr.active & self.found;
         core::array::from_fn(|l| {
-            if alone >> l & 1 == 1 {
-                self.alone.get(l).map_or(Hit::MISS, Closest::hit)
-            } else if found >> l & 1 == 1 {
+            if found >> l & 1 == 1 {
                 Hit {
                     t: self.t.lane(l),
                     prim: self.prim.get(l).copied().unwrap_or(MISS),
@@ -175,19 +161,6 @@ impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for ClosestLanes<'_, 'a, V, N
     fn state(&self) -> Option<(V, u32)> {
         Some((self.t, self.lr.active))
     }
-
-    #[inline(always)]
-    fn single(&mut self, l: usize, start: (u32, f32, f32)) -> Option<(V, u32)> {
-        let one = self.lr.single(l);
-        let mut best = Closest::new(one.tmax);
-        self.tree
-            .closest_from(&one.sr, &one.cr, one.tmin, &mut best, start, &mut ());
-        if let Some(a) = self.alone.get_mut(l) {
-            *a = best;
-            self.alone_bits |= 1 << l;
-        }
-        self.state()
-    }
 }
 
 /// The any-hit search: a bitmask of the lanes found occluded.
@@ -220,18 +193,6 @@ impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for AnyLanes<'_, 'a, V, N> {
         }
         self.state()
     }
-
-    #[inline(always)]
-    fn single(&mut self, l: usize, start: (u32, f32, f32)) -> Option<(V, u32)> {
-        let one = self.lr.single(l);
-        if self
-            .tree
-            .any_from(&one.sr, &one.cr, (one.tmin, one.tmax), start, &mut ())
-        {
-            self.occluded |= 1 << l;
-        }
-        self.state()
-    }
 }
 
 impl<'a> TriangleTree<'a> {
@@ -243,6 +204,13 @@ impl<'a> TriangleTree<'a> {
         lr: &LaneRays<V, N>,
         stack: &mut LaneStack<V>,
     ) -> [Hit; N] {
+        if !lr.coherent {
+            return lr.alone(Hit::MISS, |one, start| {
+                let mut best = Closest::new(one.tmax);
+                self.closest_from(&one.sr, &one.cr, one.tmin, &mut best, start, &mut ());
+                best.hit()
+            });
+        }
         let mut visit = ClosestLanes {
             tree: self,
             lr,
@@ -250,8 +218,6 @@ impl<'a> TriangleTree<'a> {
             vwd: [lr.tmax; 3],
             prim: [MISS; N],
             found: 0,
-            alone_bits: 0,
-            alone: [Closest::new(0.0); N],
         };
         self.walk_lanes(lr, stack, &mut visit);
         visit.hits()
@@ -264,6 +230,15 @@ impl<'a> TriangleTree<'a> {
         lr: &LaneRays<V, N>,
         stack: &mut LaneStack<V>,
     ) -> u32 {
+        if !lr.coherent {
+            let hit = lr.alone(false, |one, start| {
+                self.any_from(&one.sr, &one.cr, (one.tmin, one.tmax), start, &mut ())
+            });
+            return hit
+                .iter()
+                .enumerate()
+                .fold(0, |m, (l, &h)| m | u32::from(h) << l);
+        }
         let mut visit = AnyLanes {
             tree: self,
             lr,
@@ -273,8 +248,7 @@ impl<'a> TriangleTree<'a> {
         visit.occluded
     }
 
-    /// The packet loop: `visit` tests leaves (and traces the lanes of an
-    /// incoherent packet alone).
+    /// The packet loop of a coherent packet: `visit` tests leaves.
     #[inline(always)]
     fn walk_lanes<V: Lanes<N>, const N: usize>(
         &self,
@@ -286,16 +260,6 @@ impl<'a> TriangleTree<'a> {
         let mut sp = 0usize;
         let (mut lanes, mut lo, mut hi) = (lr.active, lr.lo, lr.hi);
         if lanes == 0 {
-            return;
-        }
-        // Lanes that disagree on a near child go alone from the root: a
-        // packet of random rays costs its single rays, not more.
-        if !lr.coherent {
-            for l in 0..N {
-                if lanes >> l & 1 == 1 && visit.single(l, (0, lo.lane(l), hi.lane(l))).is_none() {
-                    return;
-                }
-            }
             return;
         }
         let Some(mut node) = self.nodes.first().copied() else {

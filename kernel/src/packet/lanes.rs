@@ -30,6 +30,9 @@ pub(crate) trait Lanes<const N: usize>:
     /// `[origin x, y, z, tmin, dir x, y, z, tmax]`: a transpose in
     /// registers, not `N` scalar stores reloaded as vectors.
     fn columns(rays: &[Ray]) -> [Self; 8];
+    /// Four columns as `N` rows of 4 floats (a transpose in registers):
+    /// `[t, prim, u, v]` lanes into hit records.
+    fn records(cols: [Self; 4]) -> [[f32; 4]; N];
     /// Lanes where `self < rhs`, as a bitmask.
     fn lt(self, rhs: Self) -> u32;
     /// Lanes where `self > rhs`, as a bitmask.
@@ -56,7 +59,7 @@ pub(crate) trait Lanes<const N: usize>:
 }
 
 macro_rules! impl_lanes {
-    ($v:ident, $i:ty, $n:literal, $columns:ident) => {
+    ($v:ident, $i:ty, $n:literal, $columns:ident, $records:ident) => {
         /// The scalar `Span`'s selects lane by lane: `rhs` where it is
         /// smaller (larger), else `self`, so a NaN `rhs` keeps `self`. One
         /// `vminps`/`vmaxps` with the operands swapped (it returns its
@@ -97,6 +100,10 @@ macro_rules! impl_lanes {
             #[inline(always)]
             fn columns(rays: &[Ray]) -> [Self; 8] {
                 $columns(rays)
+            }
+            #[inline(always)]
+            fn records(cols: [Self; 4]) -> [[f32; 4]; $n] {
+                $records(cols)
             }
             #[inline(always)]
             fn lt(self, rhs: Self) -> u32 {
@@ -175,8 +182,23 @@ fn columns4(rays: &[Ray]) -> [f32x4; 8] {
     [ox, oy, oz, tmin, dx, dy, dz, tmax]
 }
 
-impl_lanes!(f32x4, i32x4, 4, columns4);
-impl_lanes!(f32x8, i32x8, 8, columns8);
+/// [`Lanes::records`] for 4 lanes: one 4x4 transpose.
+#[inline(always)]
+fn records4(cols: [f32x4; 4]) -> [[f32; 4]; 4] {
+    f32x4::transpose(cols).map(f32x4::to_array)
+}
+
+/// [`Lanes::records`] for 8 lanes: 4x4 transposes of the low and the
+/// high halves.
+#[inline(always)]
+fn records8(cols: [f32x8; 4]) -> [[f32; 4]; 8] {
+    let halves: [[[f32; 4]; 2]; 4] = cols.map(|c| bytemuck::cast(c.to_array()));
+    let half = |h: usize| records4(halves.map(|c| f32x4::new(c[h])));
+    bytemuck::cast([half(0), half(1)])
+}
+
+impl_lanes!(f32x4, i32x4, 4, columns4, records4);
+impl_lanes!(f32x8, i32x8, 8, columns8, records8);
 
 #[cfg(test)]
 mod tests {
@@ -253,6 +275,35 @@ mod tests {
                         assert_eq!(x, want, "{N} lanes, {n} rays, field {f}, lane {l}");
                     }
                 }
+            }
+        }
+        check::<f32x4, 4>();
+        check::<f32x8, 8>();
+    }
+
+    #[test]
+    fn records_transpose_four_columns_bit_for_bit() {
+        fn check<V: Lanes<N>, const N: usize>() {
+            // Column c, lane l holds 10 l + c; column 1 a NaN with a payload
+            // (a `MISS` index), which must arrive as the same bits.
+            let cols: [V; 4] = core::array::from_fn(|c| {
+                V::from_array(core::array::from_fn(|l| match c {
+                    1 => f32::from_bits(u32::MAX - l as u32),
+                    _ => (10 * l + c) as f32,
+                }))
+            });
+            for (l, row) in V::records(cols).iter().enumerate() {
+                let want = [
+                    (10 * l) as f32,
+                    f32::from_bits(u32::MAX - l as u32),
+                    (10 * l + 2) as f32,
+                    (10 * l + 3) as f32,
+                ];
+                assert_eq!(
+                    row.map(f32::to_bits),
+                    want.map(f32::to_bits),
+                    "{N} lanes, lane {l}"
+                );
             }
         }
         check::<f32x4, 4>();

@@ -94,24 +94,23 @@ struct ClosestLanes<'t, 'a, V, const N: usize> {
 
 impl<V: Lanes<N>, const N: usize> ClosestLanes<'_, '_, V, N> {
     /// Each lane's answer: [`TriangleHit::to_hit`](crate::triangle::TriangleHit::to_hit)
-    /// in lanes (its two divisions for all lanes at once).
+    /// in lanes (its two divisions for all lanes at once), [`Hit::MISS`]
+    /// by selects, then transposed into records (a branch per lane on hit
+    /// or miss was mispredicted on the silhouette's tiles).
     #[inline(always)]
     fn hits(&self) -> [Hit; N] {
         let [v, w, det] = self.vwd;
-        let (u, v) = (v / det, w / det);
-        let found = self.lr.active & self.found;
-        core::array::from_fn(|l| {
-            if found >> l & 1 == 1 {
-                Hit {
-                    t: self.t.lane(l),
-                    prim: self.prim.get(l).copied().unwrap_or(MISS),
-                    u: u.lane(l),
-                    v: v.lane(l),
-                }
-            } else {
-                Hit::MISS
-            }
-        })
+        // A lane that never won keeps `prim == MISS`.
+        let found = V::mask(self.found);
+        let pick = |x: V, miss: f32| V::select(found, x, V::splat(miss));
+        let prim = V::from_array(self.prim.map(f32::from_bits));
+        let cols = [
+            pick(self.t, Hit::MISS.t),
+            prim,
+            pick(v / det, Hit::MISS.u),
+            pick(w / det, Hit::MISS.v),
+        ];
+        V::records(cols).map(bytemuck::cast)
     }
 }
 

@@ -86,8 +86,10 @@ struct ClosestLanes<'t, 'a, V, const N: usize> {
     t: V,
     /// The best hit's `v`, `w` and `det` ([`TriangleHit`](crate::triangle::TriangleHit)).
     vwd: [V; 3],
-    /// The best triangle of each lane ([`MISS`] before any hit).
-    prim: [u32; N],
+    /// The best triangle of each lane ([`MISS`] before any hit), its bits
+    /// in an `f32` lane: a win updates it with one select, as `t` (a loop
+    /// over the winning lanes mispredicted its exit).
+    prim: V,
     /// Lanes with a hit.
     found: u32,
 }
@@ -103,10 +105,9 @@ impl<V: Lanes<N>, const N: usize> ClosestLanes<'_, '_, V, N> {
         // A lane that never won keeps `prim == MISS`.
         let found = V::mask(self.found);
         let pick = |x: V, miss: f32| V::select(found, x, V::splat(miss));
-        let prim = V::from_array(self.prim.map(f32::from_bits));
         let cols = [
             pick(self.t, Hit::MISS.t),
-            prim,
+            self.prim,
             pick(v / det, Hit::MISS.u),
             pick(w / det, Hit::MISS.v),
         ];
@@ -133,7 +134,7 @@ impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for ClosestLanes<'_, 'a, V, N
             while ties != 0 {
                 let l = ties.trailing_zeros() as usize;
                 ties &= ties - 1;
-                if self.prim.get(l).is_some_and(|&b| p < b) {
+                if p < self.prim.lane(l).to_bits() {
                     wins |= 1 << l;
                 }
             }
@@ -144,14 +145,8 @@ impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for ClosestLanes<'_, 'a, V, N
             self.t = V::select(m, h.t, self.t);
             self.vwd = [(h.v, self.vwd[0]), (h.w, self.vwd[1]), (h.det, self.vwd[2])]
                 .map(|(new, old)| V::select(m, new, old));
+            self.prim = V::select(m, V::splat(f32::from_bits(p)), self.prim);
             self.found |= wins;
-            let mut w = wins;
-            while w != 0 {
-                if let Some(b) = self.prim.get_mut(w.trailing_zeros() as usize) {
-                    *b = p;
-                }
-                w &= w - 1;
-            }
         }
         self.state()
     }
@@ -215,7 +210,7 @@ impl<'a> TriangleTree<'a> {
             lr,
             t: lr.tmax,
             vwd: [lr.tmax; 3],
-            prim: [MISS; N],
+            prim: V::splat(f32::from_bits(MISS)),
             found: 0,
         };
         self.walk_lanes(lr, stack, &mut visit);

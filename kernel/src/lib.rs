@@ -69,6 +69,7 @@
 #![warn(clippy::std_instead_of_core, clippy::alloc_instead_of_core)]
 
 mod error;
+mod leaf_lanes;
 pub mod node;
 pub mod packet;
 mod points;

@@ -334,8 +334,8 @@ impl<'a> TriangleTree<'a> {
                 // The near child by the single ray's one-shift rule (no
                 // table load on the node-to-node chain); the far one with
                 // the bits flipped.
-                let first = node.first_child(lr.above_first_nibbles);
-                let second = node.first_child(!lr.above_first_nibbles);
+                let first = node.first_child(lr.above_first_nibbles) as u32;
+                let second = node.first_child(!lr.above_first_nibbles) as u32;
                 let far_lo = lo.far_lo(t_split, s2);
                 // Push the far child unconditionally and keep it only when
                 // the packet visits both children (the single ray's way:

@@ -173,27 +173,17 @@ mod tests {
     //! lower index must win) and axis-aligned rays.
     use super::*;
     use crate::ray::Ray;
+    use crate::test_rng::Rng;
     use crate::triangle::{any_hit_brute, closest_hit_brute};
     use wide::{f32x4, f32x8};
 
-    /// xorshift: deterministic, no dependencies.
-    struct Rng(u64);
-
-    impl Rng {
-        fn f(&mut self) -> f32 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 40) as f32 / (1u64 << 24) as f32
-        }
-        /// On a grid of quarters half the time.
-        fn coord(&mut self) -> f32 {
-            let x = self.f();
-            if self.f() < 0.5 {
-                (x * 4.0).floor() / 4.0
-            } else {
-                x
-            }
+    /// A coordinate on a grid of quarters half the time.
+    fn coord(rng: &mut Rng) -> f32 {
+        let x = rng.f();
+        if rng.f() < 0.5 {
+            (x * 4.0).floor() / 4.0
+        } else {
+            x
         }
     }
 
@@ -234,7 +224,7 @@ mod tests {
         for round in 0..rounds {
             let mut tris = [Triangle { v: [[0.0; 3]; 3] }; 12];
             for t in tris.iter_mut() {
-                t.v = core::array::from_fn(|_| core::array::from_fn(|_| rng.coord()));
+                t.v = core::array::from_fn(|_| core::array::from_fn(|_| coord(&mut rng)));
             }
             // Repeats at higher indices, in the same chunk of lanes and in
             // another: ties at equal t, which the lower index must win.
@@ -245,8 +235,12 @@ mod tests {
             let n = 4 + round % 9;
             let prims: [u32; 12] = core::array::from_fn(|i| i as u32);
             let prims = &prims[..n];
-            let o = [rng.coord() - 0.5, rng.coord() - 0.5, -1.0];
-            let mut d = [rng.coord() * 2.0 - 1.0, rng.coord() * 2.0 - 1.0, 1.0];
+            let o = [coord(&mut rng) - 0.5, coord(&mut rng) - 0.5, -1.0];
+            let mut d = [
+                coord(&mut rng) * 2.0 - 1.0,
+                coord(&mut rng) * 2.0 - 1.0,
+                1.0,
+            ];
             if round % 5 == 0 {
                 d[round % 2] = 0.0; // parallel to an axis plane
             }

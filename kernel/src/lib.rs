@@ -74,6 +74,8 @@ pub mod node;
 pub mod packet;
 mod points;
 mod ray;
+#[cfg(test)]
+mod test_rng;
 mod traverse;
 mod tree;
 mod triangle;

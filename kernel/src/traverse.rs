@@ -8,6 +8,11 @@
 //!     push (far child, t_split, t_max); continue with (near child, t_min, t_split)
 //! ```
 //!
+//! with one refinement: a child that is an empty cell is never entered nor
+//! pushed (both children are read together, so the test is free of a
+//! second load), and the loop moves on to the next far cell when neither
+//! child holds anything for the ray.
+//!
 //! "Near" is the child the ray enters first *in t order*: the below child
 //! when the direction component is positive or `+0`, the above child when
 //! it is negative or `-0`. Taking the sign of `1/d` (an infinity of the

@@ -171,8 +171,10 @@ struct Scratch {
     straddlers: Vec<u32>,
     /// The straddling triangles, clipped.
     clipped: Vec<Clipped>,
-    /// The straddlers' new events on one axis, below and above.
+    /// The straddlers' new events, below and above, axis after axis.
     new: [Vec<u64>; 2],
+    /// The one-sided events kept below and above, axis after axis.
+    kept: [Vec<u64>; 2],
 }
 
 thread_local! {
@@ -180,48 +182,42 @@ thread_local! {
     static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
 }
 
-/// Appends the events of `run` (one axis of the cell being split) that
-/// go below and above to `out`, merged with the clipped straddlers'
-/// events on `axis`, all in sweep order. One pass: the one-sided events
-/// are already sorted, only the straddlers' few new ones are sorted.
-fn split_run(
-    run: &[u64],
-    axis: usize,
-    sides: &[u8],
-    clipped: &[Clipped],
-    new: &mut [Vec<u64>; 2],
-    out: [&mut Vec<u64>; 2],
-) {
-    let [new_b, new_a] = new;
-    new_b.clear();
-    new_a.clear();
-    for (t, b, a) in clipped {
-        if let Some(b) = b {
-            events::push(new_b, b, axis, *t);
-        }
-        if let Some(a) = a {
-            events::push(new_a, a, axis, *t);
-        }
-    }
-    new_b.sort_unstable();
-    new_a.sort_unstable();
-    let [out_b, out_a] = out;
-    let (mut i, mut j) = (0, 0);
-    for &e in run {
+/// Appends to `out` the merge of two sorted runs: `kept` (a side's
+/// one-sided events on one axis) and the usually much shorter `new` (the
+/// straddlers' new events): each new event's place is found by binary
+/// search and the kept events before it are copied in one go.
+fn merge_into(out: &mut Vec<u64>, mut kept: &[u64], new: &[u64]) {
+    for &x in new {
         // Keys are unique, so the merge order is the sort order.
-        let (out, new, next) = match sides[events::tri(e) as usize] {
-            BELOW => (&mut *out_b, &*new_b, &mut i),
-            ABOVE => (&mut *out_a, &*new_a, &mut j),
-            _ => continue,
-        };
-        while let Some(&x) = new.get(*next).filter(|&&x| x < e) {
-            out.push(x);
-            *next += 1;
-        }
-        out.push(e);
+        let at = kept.partition_point(|&e| e < x);
+        out.extend_from_slice(&kept[..at]);
+        out.push(x);
+        kept = &kept[at..];
     }
-    out_b.extend_from_slice(&new_b[i..]);
-    out_a.extend_from_slice(&new_a[j..]);
+    out.extend_from_slice(kept);
+}
+
+/// One child's events: per axis, the merge of its kept one-sided events
+/// (`kept`, axis runs ending at `kept_ends`) and the straddlers' new ones
+/// (`new`, runs ending at `new_ends`), in one exactly sized buffer.
+fn child_events(
+    kept: &[u64],
+    kept_ends: [usize; 3],
+    new: &[u64],
+    new_ends: [usize; 3],
+    n: usize,
+) -> Events {
+    let mut ev = Vec::with_capacity(kept_ends[2] + new_ends[2]);
+    let mut starts = [0; 2];
+    let (mut k, mut j) = (0, 0);
+    for axis in 0..3 {
+        if axis > 0 {
+            starts[axis - 1] = ev.len();
+        }
+        merge_into(&mut ev, &kept[k..kept_ends[axis]], &new[j..new_ends[axis]]);
+        (k, j) = (kept_ends[axis], new_ends[axis]);
+    }
+    Events { ev, starts, n }
 }
 
 impl EventSah<'_> {
@@ -338,37 +334,53 @@ impl EventSah<'_> {
         let clipped = &*clipped;
         nb += clipped.iter().filter(|c| c.1.is_some()).count();
         na += clipped.iter().filter(|c| c.2.is_some()).count();
-        // Each side holds at most the cell's events plus the straddlers'
-        // new ones; the spare room is given back at the end.
-        let room = set.ev.len() + 6 * clipped.len();
-        let (mut b, mut a) = (Vec::with_capacity(room), Vec::with_capacity(room));
-        let (mut sb, mut sa) = ([0; 2], [0; 2]);
-        for axis in 0..3 {
-            if axis > 0 {
-                (sb[axis - 1], sa[axis - 1]) = (b.len(), a.len());
-            }
-            split_run(
-                set.axis(axis),
-                axis,
-                sides,
-                clipped,
-                &mut scratch.new,
-                [&mut b, &mut a],
-            );
+        // The one-sided events, filtered without a branch per event:
+        // each is written to both sides and kept where its triangle goes
+        // (a straddler's old events are kept by neither).
+        let ev = &set.ev;
+        let [kb, ka] = &mut scratch.kept;
+        if kb.len() < ev.len() {
+            kb.resize(ev.len(), 0);
+            ka.resize(ev.len(), 0);
         }
-        b.shrink_to_fit();
-        a.shrink_to_fit();
+        let (mut ib, mut ia) = (0, 0);
+        let (mut kept_b, mut kept_a) = ([0; 3], [0; 3]);
+        let [one, two] = set.starts;
+        for (axis, run) in [&ev[..one], &ev[one..two], &ev[two..]]
+            .into_iter()
+            .enumerate()
+        {
+            for &e in run {
+                let side = sides[events::tri(e) as usize];
+                kb[ib] = e;
+                ka[ia] = e;
+                ib += usize::from(side == BELOW);
+                ia += usize::from(side == ABOVE);
+            }
+            (kept_b[axis], kept_a[axis]) = (ib, ia);
+        }
+        // The straddlers' new events, each axis's run sorted.
+        let [new_b, new_a] = &mut scratch.new;
+        new_b.clear();
+        new_a.clear();
+        let (mut ends_b, mut ends_a) = ([0; 3], [0; 3]);
+        for axis in 0..3 {
+            let (fb, fa) = (new_b.len(), new_a.len());
+            for (t, b, a) in clipped {
+                if let Some(b) = b {
+                    events::push(new_b, b, axis, *t);
+                }
+                if let Some(a) = a {
+                    events::push(new_a, a, axis, *t);
+                }
+            }
+            new_b[fb..].sort_unstable();
+            new_a[fa..].sort_unstable();
+            (ends_b[axis], ends_a[axis]) = (new_b.len(), new_a.len());
+        }
         (
-            Events {
-                ev: b,
-                starts: sb,
-                n: nb,
-            },
-            Events {
-                ev: a,
-                starts: sa,
-                n: na,
-            },
+            child_events(kb, kept_b, new_b, ends_b, nb),
+            child_events(ka, kept_a, new_a, ends_a, na),
         )
     }
 }

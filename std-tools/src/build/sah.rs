@@ -229,25 +229,30 @@ impl EventSah<'_> {
     /// The cheapest plane on `axis` (first of equal costs).
     fn sweep(&self, ev: &[u64], n: usize, axis: usize, cell: &Aabb) -> Option<Choice> {
         let ratios = AreaRatios::new(cell, axis)?;
-        let (lo, hi) = (cell.min[axis], cell.max[axis]);
+        // Planes strictly inside the cell, compared as position keys: the
+        // key order is the position order, so no event is decoded to test it.
+        let (lo, hi) = (
+            events::position_key(cell.min[axis]),
+            events::position_key(cell.max[axis]),
+        );
         let mut best: Option<Choice> = None;
+        let mut best_cost = f64::INFINITY;
         let (mut n_below, mut n_above) = (0usize, n);
         let mut i = 0;
-        while i < ev.len() {
-            let at = ev[i] >> 32;
-            let mut count = [0usize; 3];
-            while i < ev.len() && ev[i] >> 32 == at {
-                count[events::kind(ev[i]) as usize] += 1;
+        while let Some(&first) = ev.get(i) {
+            let at = events::position_key_of(first);
+            // The events at this position, counted by kind in registers.
+            let (mut ends, mut planars, mut starts) = (0usize, 0usize, 0usize);
+            while let Some(&e) = ev.get(i).filter(|&&e| events::position_key_of(e) == at) {
+                let kind = events::kind(e);
+                ends += usize::from(kind == END);
+                planars += usize::from(kind == PLANAR);
+                starts += usize::from(kind == START);
                 i += 1;
             }
-            let [ends, planars, starts] = [
-                count[END as usize],
-                count[PLANAR as usize],
-                count[START as usize],
-            ];
             n_above -= planars + ends;
-            let pos = events::pos(ev[i - 1]);
-            if pos > lo && pos < hi {
+            if at > lo && at < hi {
+                let pos = events::pos(first);
                 let (pb, pa) = ratios.at(pos);
                 let below = self.cost.split(pb, n_below + planars, pa, n_above);
                 let above = if planars == 0 {
@@ -260,7 +265,8 @@ impl EventSah<'_> {
                 } else {
                     (false, above)
                 };
-                if best.is_none_or(|b| cost < b.cost.unwrap_or(f64::INFINITY)) {
+                if best.is_none() || cost < best_cost {
+                    best_cost = cost;
                     best = Some(Choice {
                         axis,
                         pos,

@@ -40,6 +40,7 @@ use super::boxes::{self, Item};
 use super::clip::{cut_box, split_boxes, PERFECT_MIN};
 use super::cost::{AreaRatios, CostModel};
 use super::events::{self, END, PLANAR, START};
+use super::small::{self, SMALL_MAX};
 use super::subdivide::{Choice, Splitter};
 use kdray_kernel::Triangle;
 use std::cell::RefCell;
@@ -139,6 +140,9 @@ pub(super) enum Cell {
     Boxes(Vec<Item>),
     /// Fewer, as sorted events.
     Events(Events),
+    /// Fewer than [`SMALL_MAX`], in index order: the exact SAH by
+    /// comparisons ([`small`](super::small)).
+    Small(Vec<Item>),
 }
 
 impl Cell {
@@ -146,10 +150,19 @@ impl Cell {
     fn of_items(items: Vec<Item>) -> Cell {
         if items.len() >= SWEEP_MAX {
             Cell::Boxes(items)
+        } else if items.len() < SMALL_MAX {
+            Cell::Small(items)
         } else {
             Cell::Events(Events::of_items(&items))
         }
     }
+}
+
+/// A straddler's boxes in the children of a cell of fewer than
+/// [`PERFECT_MIN`] triangles: the triangle's box in the cell, cut by the
+/// plane (no clipping).
+fn cut_small(tri: &Triangle, cell: &Aabb, axis: usize, pos: f32) -> (Option<Aabb>, Option<Aabb>) {
+    cut_box(&Aabb::of_triangle(tri).intersect(cell), cell, axis, pos)
 }
 
 /// Where a triangle goes (the classification of the split step).
@@ -175,6 +188,9 @@ struct Scratch {
     new: [Vec<u64>; 2],
     /// The one-sided events kept below and above, axis after axis.
     kept: [Vec<u64>; 2],
+    /// Where each triangle's item is in a small child being made (indexed
+    /// by triangle, like `sides`).
+    slot: Vec<u32>,
 }
 
 thread_local! {
@@ -223,6 +239,70 @@ fn child_events(
     Events { ev, starts, n }
 }
 
+/// One small child's items, from the same runs as [`child_events`]:
+/// each triangle's box is read off its events, so nothing is merged.
+/// `slot` is scratch indexed by triangle.
+fn child_items(
+    kept: &[u64],
+    kept_ends: [usize; 3],
+    new: &[u64],
+    new_ends: [usize; 3],
+    slot: &mut [u32],
+) -> Vec<Item> {
+    // The triangles in index order (a leaf lists them sorted): each has
+    // one event on axis 0 that is not an end.
+    let mut items: Vec<Item> = kept[..kept_ends[0]]
+        .iter()
+        .chain(&new[..new_ends[0]])
+        .filter(|&&e| events::kind(e) != END)
+        .map(|&e| Item {
+            tri: events::tri(e),
+            b: Aabb::EMPTY,
+        })
+        .collect();
+    items.sort_unstable_by_key(|it| it.tri);
+    for (i, it) in items.iter().enumerate() {
+        if let Some(s) = slot.get_mut(it.tri as usize) {
+            *s = i as u32;
+        }
+    }
+    let (mut k, mut j) = (0, 0);
+    for axis in 0..3 {
+        let run = kept[k..kept_ends[axis]].iter();
+        for &e in run.chain(&new[j..new_ends[axis]]) {
+            let s = slot.get(events::tri(e) as usize);
+            let Some(it) = s.and_then(|&s| items.get_mut(s as usize)) else {
+                continue;
+            };
+            let at = events::pos(e);
+            match events::kind(e) {
+                START => it.b.min[axis] = at,
+                END => it.b.max[axis] = at,
+                _ => (it.b.min[axis], it.b.max[axis]) = (at, at),
+            }
+        }
+        (k, j) = (kept_ends[axis], new_ends[axis]);
+    }
+    items
+}
+
+/// A child cell of `n` triangles from its runs: small ones as items
+/// ([`small`](super::small)), the others as events.
+fn child_cell(
+    kept: &[u64],
+    kept_ends: [usize; 3],
+    new: &[u64],
+    new_ends: [usize; 3],
+    n: usize,
+    slot: &mut [u32],
+) -> Cell {
+    if n < SMALL_MAX {
+        Cell::Small(child_items(kept, kept_ends, new, new_ends, slot))
+    } else {
+        Cell::Events(child_events(kept, kept_ends, new, new_ends, n))
+    }
+}
+
 impl EventSah<'_> {
     /// The root cell from the triangles' boxes.
     pub(super) fn root(boxes: &[Aabb]) -> Cell {
@@ -257,17 +337,8 @@ impl EventSah<'_> {
             if at > lo && at < hi {
                 let pos = events::pos(first);
                 let (pb, pa) = ratios.at(pos);
-                let below = self.cost.split(pb, n_below + planars, pa, n_above);
-                let above = if planars == 0 {
-                    below
-                } else {
-                    self.cost.split(pb, n_below, pa, n_above + planars)
-                };
-                let (planar_below, cost) = if below <= above {
-                    (true, below)
-                } else {
-                    (false, above)
-                };
+                let (cost, planar_below) =
+                    self.cost.split_planar(pb, n_below, pa, n_above, planars);
                 if best.is_none() || cost < best_cost {
                     best_cost = cost;
                     best = Some(Choice {
@@ -291,7 +362,7 @@ impl EventSah<'_> {
         cell: &Aabb,
         c: &Choice,
         scratch: &mut Scratch,
-    ) -> (Events, Events) {
+    ) -> (Cell, Cell) {
         let (k, p) = (c.axis, c.pos);
         let on_k = set.axis(k);
         let sides = &mut scratch.sides;
@@ -332,8 +403,7 @@ impl EventSah<'_> {
             let (b, a) = if set.n >= PERFECT_MIN {
                 split_boxes(tri, cell, k, p)
             } else {
-                // Small cells: the triangle's box in the cell, cut.
-                cut_box(&Aabb::of_triangle(tri).intersect(cell), cell, k, p)
+                cut_small(tri, cell, k, p)
             };
             (t, b, a)
         };
@@ -387,9 +457,10 @@ impl EventSah<'_> {
             new_a[fa..].sort_unstable();
             (ends_b[axis], ends_a[axis]) = (new_b.len(), new_a.len());
         }
+        let slot = &mut scratch.slot;
         (
-            child_events(kb, kept_b, new_b, ends_b, nb),
-            child_events(ka, kept_a, new_a, ends_a, na),
+            child_cell(kb, kept_b, new_b, ends_b, nb, slot),
+            child_cell(ka, kept_a, new_a, ends_a, na, slot),
         )
     }
 }
@@ -405,12 +476,12 @@ impl EventSah<'_> {
             })
     }
 
-    fn partition_events(&self, set: Events, cell: &Aabb, c: &Choice) -> (Events, Events) {
+    fn partition_events(&self, set: Events, cell: &Aabb, c: &Choice) -> (Cell, Cell) {
         // A plane that cuts off empty space (more than half the splits
         // near the leaves): one side takes every event as it is.
         match set.one_side(c) {
-            Some(BELOW) => return (set, Events::EMPTY),
-            Some(_) => return (Events::EMPTY, set),
+            Some(BELOW) => return (Cell::Events(set), Cell::Events(Events::EMPTY)),
+            Some(_) => return (Cell::Events(Events::EMPTY), Cell::Events(set)),
             None => {}
         }
         // Event cells are small (below `SWEEP_MAX`) and split on one
@@ -419,6 +490,7 @@ impl EventSah<'_> {
         SCRATCH.with_borrow_mut(|scratch| {
             if scratch.sides.len() < self.triangles.len() {
                 scratch.sides.resize(self.triangles.len(), BOTH);
+                scratch.slot.resize(self.triangles.len(), 0);
             }
             self.split_events(&set, cell, c, scratch)
         })
@@ -430,21 +502,21 @@ impl Splitter for EventSah<'_> {
 
     fn count(&self, set: &Cell) -> usize {
         match set {
-            Cell::Boxes(items) => items.len(),
+            Cell::Boxes(items) | Cell::Small(items) => items.len(),
             Cell::Events(ev) => ev.n,
         }
     }
 
     fn bytes(&self, set: &Cell) -> usize {
         match set {
-            Cell::Boxes(items) => boxes::bytes(items),
+            Cell::Boxes(items) | Cell::Small(items) => boxes::bytes(items),
             Cell::Events(ev) => ev.ev.capacity() * 8,
         }
     }
 
     fn prims(&self, set: Cell) -> Vec<u32> {
         match set {
-            Cell::Boxes(items) => boxes::prims(items),
+            Cell::Boxes(items) | Cell::Small(items) => boxes::prims(items),
             Cell::Events(ev) => {
                 let mut p: Vec<u32> = ev
                     .axis(0)
@@ -462,6 +534,7 @@ impl Splitter for EventSah<'_> {
         match set {
             Cell::Boxes(items) => binned::choose(items, cell, BINS, &self.cost),
             Cell::Events(ev) => self.choose_events(ev, cell),
+            Cell::Small(items) => small::choose(items, cell, &self.cost),
         }
     }
 
@@ -474,9 +547,12 @@ impl Splitter for EventSah<'_> {
                 });
                 rayon::join(|| Cell::of_items(b), || Cell::of_items(a))
             }
-            Cell::Events(ev) => {
-                let (b, a) = self.partition_events(ev, cell, c);
-                (Cell::Events(b), Cell::Events(a))
+            Cell::Events(ev) => self.partition_events(ev, cell, c),
+            Cell::Small(items) => {
+                let (b, a) = boxes::partition(items, c, |it| {
+                    cut_small(&self.triangles[it.tri as usize], cell, c.axis, c.pos)
+                });
+                (Cell::Small(b), Cell::Small(a))
             }
         }
     }

@@ -484,9 +484,9 @@ impl EventSah<'_> {
             Some(_) => return (Cell::Events(Events::EMPTY), Cell::Events(set)),
             None => {}
         }
-        // Event cells are small (below `SWEEP_MAX`) and split on one
-        // thread with no rayon calls inside, so the thread's own buffers
-        // cannot be borrowed twice.
+        // No rayon calls while the thread's own buffers are borrowed (the
+        // subtrees' joins come after the split), so they cannot be
+        // borrowed twice.
         SCRATCH.with_borrow_mut(|scratch| {
             if scratch.sides.len() < self.triangles.len() {
                 scratch.sides.resize(self.triangles.len(), BOTH);

@@ -14,7 +14,7 @@
 //!   by count and depth, and when a split leaves one side with every
 //!   triangle or more than half of them straddle the plane.
 //!
-//! Subtrees above [`PARALLEL_MIN`] triangles are built with `rayon::join`.
+//! Subtrees of at least [`JOIN_MIN`] triangles are built with `rayon::join`.
 //! Every decision depends only on the cell and its triangles, never on
 //! which thread runs it, so the tree is the same for any thread count.
 
@@ -24,9 +24,16 @@ use super::monitor::BuildMonitor;
 use super::BuildNode;
 use kdray_kernel::Axis;
 
-/// Cells with at least this many triangles build their children in parallel
-/// (and builders may parallelise their own sweeps and partitions).
+/// Cells with at least this many triangles may parallelise their own
+/// tallies and partitions, in chunks of this size.
 pub(super) const PARALLEL_MIN: usize = 4096;
+
+/// Cells with at least this many triangles build their two children in
+/// parallel. Far below [`PARALLEL_MIN`]: a join costs about a microsecond,
+/// and with subtrees of up to 4096 triangles as the smallest tasks one
+/// core sat idle for the last of them (and could not help a core slowed
+/// by other work).
+pub(super) const JOIN_MIN: usize = 512;
 
 /// A split plane a builder picked.
 #[derive(Clone, Copy, Debug)]
@@ -132,7 +139,7 @@ impl<S: Splitter> Walk<'_, S> {
         let bad = bad + u32::from(!pays);
         let go_below = || self.node(below, cb, depth + 1, bad, ub);
         let go_above = || self.node(above, ca, depth + 1, bad, units - ub);
-        let ((below, cost_b), (above, cost_a)) = if n >= PARALLEL_MIN {
+        let ((below, cost_b), (above, cost_a)) = if n >= JOIN_MIN {
             rayon::join(go_below, go_above)
         } else {
             (go_below(), go_above())

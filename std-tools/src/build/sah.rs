@@ -32,7 +32,10 @@
 //! parallel chunks (perfect splits all the same); a cell below that size
 //! sorts its events and is swept exactly from there down. The sweep and
 //! the event split are O(N) per cell but serial per axis, which left one
-//! core idle at the top of the tree.
+//! core idle at the top of the tree. Cells of fewer than
+//! [`SMALL_MAX`] triangles drop their events again: they hold their
+//! boxes and find the same plane by comparisons ([`small`]), which is
+//! cheaper than keeping event lists sorted that near the leaves.
 
 use super::aabb::Aabb;
 use super::binned;
@@ -156,13 +159,6 @@ impl Cell {
             Cell::Events(Events::of_items(&items))
         }
     }
-}
-
-/// A straddler's boxes in the children of a cell of fewer than
-/// [`PERFECT_MIN`] triangles: the triangle's box in the cell, cut by the
-/// plane (no clipping).
-fn cut_small(tri: &Triangle, cell: &Aabb, axis: usize, pos: f32) -> (Option<Aabb>, Option<Aabb>) {
-    cut_box(&Aabb::of_triangle(tri).intersect(cell), cell, axis, pos)
 }
 
 /// Where a triangle goes (the classification of the split step).
@@ -304,6 +300,26 @@ fn child_cell(
 }
 
 impl EventSah<'_> {
+    /// The boxes of triangle `t`, straddling the plane at `pos` on `axis`,
+    /// in the children of `cell` (a cell of `n` triangles): clipped in
+    /// cells of at least [`PERFECT_MIN`] triangles, else the triangle's
+    /// box in the cell cut by the plane.
+    fn straddler(
+        &self,
+        n: usize,
+        t: u32,
+        cell: &Aabb,
+        axis: usize,
+        pos: f32,
+    ) -> (Option<Aabb>, Option<Aabb>) {
+        let tri = &self.triangles[t as usize];
+        if n >= PERFECT_MIN {
+            split_boxes(tri, cell, axis, pos)
+        } else {
+            cut_box(&Aabb::of_triangle(tri).intersect(cell), cell, axis, pos)
+        }
+    }
+
     /// The root cell from the triangles' boxes.
     pub(super) fn root(boxes: &[Aabb]) -> Cell {
         Cell::of_items(boxes::BoxSplitter::root(boxes))
@@ -399,12 +415,7 @@ impl EventSah<'_> {
         let sides = &*sides;
         // Straddling triangles: clip to each child's cell.
         let clip = |&t: &u32| {
-            let tri = &self.triangles[t as usize];
-            let (b, a) = if set.n >= PERFECT_MIN {
-                split_boxes(tri, cell, k, p)
-            } else {
-                cut_small(tri, cell, k, p)
-            };
+            let (b, a) = self.straddler(set.n, t, cell, k, p);
             (t, b, a)
         };
         let clipped = &mut scratch.clipped;
@@ -549,8 +560,9 @@ impl Splitter for EventSah<'_> {
             }
             Cell::Events(ev) => self.partition_events(ev, cell, c),
             Cell::Small(items) => {
+                let n = items.len();
                 let (b, a) = boxes::partition(items, c, |it| {
-                    cut_small(&self.triangles[it.tri as usize], cell, c.axis, c.pos)
+                    self.straddler(n, it.tri, cell, c.axis, c.pos)
                 });
                 (Cell::Small(b), Cell::Small(a))
             }

@@ -38,8 +38,8 @@ pub(super) fn choose(items: &[Item], cell: &Aabb, cost: &CostModel) -> Option<Ch
     // The cheapest; the lower axis on a tie. Cells of up to 8 triangles
     // (most of them) price a quarter as many candidates as the largest.
     let on = |axis| match items.len() {
-        ..=8 => choose_on::<8, 16>(items, cell, axis, cost),
-        ..=16 => choose_on::<16, 32>(items, cell, axis, cost),
+        0..=8 => choose_on::<8, 16>(items, cell, axis, cost),
+        9..=16 => choose_on::<16, 32>(items, cell, axis, cost),
         _ => choose_on::<LANES, { 2 * LANES }>(items, cell, axis, cost),
     };
     (0..3)

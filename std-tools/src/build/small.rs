@@ -76,9 +76,12 @@ fn choose_on<const L: usize, const P: usize>(
     for it in items {
         let (start, end) = (it.b.min[axis], it.b.max[axis]);
         for j in 0..P {
-            below[j] += u32::from(start < pos[j]);
-            above[j] += u32::from(end > pos[j]);
-            planar[j] += u32::from(start == pos[j] && end == pos[j]);
+            let (b, a) = (start < pos[j], end > pos[j]);
+            below[j] += u32::from(b);
+            above[j] += u32::from(a);
+            // A box neither starts before nor ends after a plane only
+            // when it lies in it (`start <= end`).
+            planar[j] += u32::from(!(b || a));
         }
     }
     let price = |j: usize| {
@@ -96,7 +99,9 @@ fn choose_on<const L: usize, const P: usize>(
         return None;
     }
     let mut best: Option<usize> = None;
-    for (j, &c) in prices.iter().enumerate() {
+    // The boxes' edges only: unused candidates are never inside.
+    for j in (0..items.len()).chain(L..L + items.len()) {
+        let c = prices.get(j).copied().unwrap_or(f64::INFINITY);
         if c == least && best.is_none_or(|b| pos[j] < pos[b]) {
             best = Some(j);
         }

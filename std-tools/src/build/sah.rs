@@ -569,3 +569,52 @@ impl Splitter for EventSah<'_> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Rng;
+
+    /// Boxes on a coarse grid inside the cell: shared edges, boxes lying
+    /// in planes, boxes touching the walls.
+    fn cell_items(rng: &mut Rng, n: usize) -> Vec<Item> {
+        let mut coord = |rng: &mut Rng| rng.below(9) as f32;
+        (0..n as u32)
+            .map(|tri| {
+                let (mut min, mut max) = ([0.0; 3], [0.0; 3]);
+                for a in 0..3 {
+                    let (x, y) = (coord(rng), coord(rng));
+                    (min[a], max[a]) = (x.min(y), x.max(y));
+                }
+                Item {
+                    tri,
+                    b: Aabb { min, max },
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn small_cells_choose_the_sweeps_plane() {
+        let s = EventSah {
+            triangles: &[],
+            cost: CostModel::from_params(&super::super::BuildParams::default()),
+        };
+        let cell = Aabb {
+            min: [0.0; 3],
+            max: [8.0, 8.0, 8.0],
+        };
+        let mut rng = Rng::new(3);
+        let mut splits = 0;
+        for round in 0..2000 {
+            let items = cell_items(&mut rng, 1 + round % (SMALL_MAX - 1));
+            let sweep = s.choose_events(&Events::of_items(&items), &cell);
+            let small = small::choose(&items, &cell, &s.cost);
+            let key =
+                |c: Option<Choice>| c.map(|c| (c.axis, c.pos.to_bits(), c.planar_below, c.cost));
+            assert_eq!(key(sweep), key(small), "round {round}: {items:?}");
+            splits += usize::from(small.is_some());
+        }
+        assert!(splits > 1000, "{splits}");
+    }
+}

@@ -578,7 +578,7 @@ mod tests {
     /// Boxes on a coarse grid inside the cell: shared edges, boxes lying
     /// in planes, boxes touching the walls.
     fn cell_items(rng: &mut Rng, n: usize) -> Vec<Item> {
-        let mut coord = |rng: &mut Rng| rng.below(9) as f32;
+        let coord = |rng: &mut Rng| rng.below(9) as f32;
         (0..n as u32)
             .map(|tri| {
                 let (mut min, mut max) = ([0.0; 3], [0.0; 3]);

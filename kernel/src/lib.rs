@@ -69,10 +69,13 @@
 #![warn(clippy::std_instead_of_core, clippy::alloc_instead_of_core)]
 
 mod error;
+mod leaf_lanes;
 pub mod node;
 pub mod packet;
 mod points;
 mod ray;
+#[cfg(test)]
+mod test_rng;
 mod traverse;
 mod tree;
 mod triangle;

@@ -203,6 +203,26 @@ impl<'a> TriangleTree<'a> {
         self.max_depth
     }
 
+    /// The children of interior node `node` for a ray whose per-axis
+    /// above-first bits are `above_first` (`Node::first_child`'s form): the
+    /// near child, the far child and the far child's index; `None` when
+    /// they lie outside the node array (only an unchecked, invalid blob).
+    /// Both come from one load (they sit side by side): the walk steps into
+    /// one of them next, and an empty cell has nothing to test, so the
+    /// walks skip it at its parent instead of stepping into it and popping
+    /// back out.
+    #[inline(always)]
+    pub(crate) fn children(&self, node: Node, above_first: u64) -> Option<(Node, Node, usize)> {
+        let first = node.first_child(above_first);
+        let &[below, above] = self.nodes.get(node.upper() as usize..)?.first_chunk()?;
+        let (near, far) = if first == node.upper() as usize {
+            (below, above)
+        } else {
+            (above, below)
+        };
+        Some((near, far, node.other_child(first)))
+    }
+
     /// The primitives of a leaf: its one primitive, or its run of the
     /// primitive-index array (empty for an empty leaf or a bad run).
     #[inline(always)]

@@ -62,44 +62,61 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
         live: u32,
         tmax: V,
     ) -> Option<LaneHits<V>> {
-        let sz = self.shear[2];
-        let (ax, ay, az) = self.shear_vertex(k, &tri.v[0]);
-        let (bx, by, bz) = self.shear_vertex(k, &tri.v[1]);
-        let (cx, cy, cz) = self.shear_vertex(k, &tri.v[2]);
-        // 2-D edge functions: u weighs vertex 0, v vertex 1, w vertex 2.
-        let mut u = cx * by - cy * bx;
-        let mut v = ax * cy - ay * cx;
-        let mut w = bx * ay - by * ax;
-        // Masks are combined in lanes: one bitmask per decision.
-        let zero = V::splat(0.0);
-        let exact_zero = (u.eq_mask(zero) | v.eq_mask(zero) | w.eq_mask(zero)).bits() & live;
-        if exact_zero != 0 {
-            [u, v, w] = f64_fixup(exact_zero, [u, v, w], [ax, ay, bx, by, cx, cy]);
-        }
-        // Edge functions of both signs: the ray passes outside.
-        let neg = u.lt_mask(zero) | v.lt_mask(zero) | w.lt_mask(zero);
-        let pos = u.gt_mask(zero) | v.gt_mask(zero) | w.gt_mask(zero);
-        let mut hit = live & !(neg & pos).bits();
-        if hit == 0 {
-            return None;
-        }
-        let det = u + v + w;
-        let t_scaled = u * (sz * az) + v * (sz * bz) + w * (sz * cz);
-        let t = t_scaled / det;
-        // As the scalar test: a zero or overflowed determinant is no hit,
-        // nor is a t outside [tmin, tmax] or not finite. `0 < |x| < inf`
-        // is `x != 0 && x.is_finite()`, and `|x| < inf` is
-        // `x.is_finite()` (NaN fails every comparison).
-        let inf = V::splat(f32::INFINITY);
-        let (det_abs, t_abs) = (det.abs(), t.abs());
-        let ok = det_abs.gt_mask(zero)
-            & det_abs.lt_mask(inf)
-            & t.ge_mask(self.tmin)
-            & t.le_mask(tmax)
-            & t_abs.lt_mask(inf);
-        hit &= ok.bits();
-        (hit != 0).then_some(LaneHits { hit, t, v, w, det })
+        let [a, b, c] = tri.v.each_ref().map(|p| self.shear_vertex(k, p));
+        watertight(a, b, c, self.shear[2], live, self.tmin, tmax)
     }
+}
+
+/// The watertight test's arithmetic after the shear, lane by lane: the
+/// vertices `[a, b, c]` relative to each lane's ray and sheared so that it
+/// runs along +z, `sz` the shear's `1/d[kz]`; the lanes in `live` that hit
+/// within their `[tmin, tmax]`, `None` when none does. Lanes may hold rays
+/// (a packet against one triangle) or triangles (one ray against a leaf's
+/// triangles): the arithmetic is the same.
+#[inline(always)]
+pub(crate) fn watertight<V: Lanes<N>, const N: usize>(
+    a: (V, V, V),
+    b: (V, V, V),
+    c: (V, V, V),
+    sz: V,
+    live: u32,
+    tmin: V,
+    tmax: V,
+) -> Option<LaneHits<V>> {
+    let ((ax, ay, az), (bx, by, bz), (cx, cy, cz)) = (a, b, c);
+    // 2-D edge functions: u weighs vertex 0, v vertex 1, w vertex 2.
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+    // Masks are combined in lanes: one bitmask per decision.
+    let zero = V::splat(0.0);
+    let exact_zero = (u.eq_mask(zero) | v.eq_mask(zero) | w.eq_mask(zero)).bits() & live;
+    if exact_zero != 0 {
+        [u, v, w] = f64_fixup(exact_zero, [u, v, w], [ax, ay, bx, by, cx, cy]);
+    }
+    // Edge functions of both signs: the ray passes outside.
+    let neg = u.lt_mask(zero) | v.lt_mask(zero) | w.lt_mask(zero);
+    let pos = u.gt_mask(zero) | v.gt_mask(zero) | w.gt_mask(zero);
+    let mut hit = live & !(neg & pos).bits();
+    if hit == 0 {
+        return None;
+    }
+    let det = u + v + w;
+    let t_scaled = u * (sz * az) + v * (sz * bz) + w * (sz * cz);
+    let t = t_scaled / det;
+    // As the scalar test: a zero or overflowed determinant is no hit,
+    // nor is a t outside [tmin, tmax] or not finite. `0 < |x| < inf`
+    // is `x != 0 && x.is_finite()`, and `|x| < inf` is
+    // `x.is_finite()` (NaN fails every comparison).
+    let inf = V::splat(f32::INFINITY);
+    let (det_abs, t_abs) = (det.abs(), t.abs());
+    let ok = det_abs.gt_mask(zero)
+        & det_abs.lt_mask(inf)
+        & t.ge_mask(tmin)
+        & t.le_mask(tmax)
+        & t_abs.lt_mask(inf);
+    hit &= ok.bits();
+    (hit != 0).then_some(LaneHits { hit, t, v, w, det })
 }
 
 /// Recomputes the edge functions of the lanes in `lanes` in `f64`.

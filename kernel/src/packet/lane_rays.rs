@@ -40,7 +40,7 @@ pub(crate) struct LaneRays<V, const N: usize> {
     /// The (coherent) lanes' above-first bits, x in bit 0, y in 1, z in
     /// 2, repeated in every nibble: the form `Node::first_child` reads, as
     /// [`CellRay`] keeps it.
-    pub(crate) above_first_nibbles: u32,
+    pub(crate) above_first_nibbles: u64,
     /// The root interval as the single ray starts its walk,
     /// [`CellRay::start`]: widened by the slack once more.
     pub(crate) lo: V,

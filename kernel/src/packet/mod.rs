@@ -25,9 +25,9 @@
 //! answer). Packets whose rays disagree on a direction sign are traced
 //! ray by ray: they would not walk together anyway.
 
-mod intersect;
+pub(crate) mod intersect;
 mod lane_rays;
-mod lanes;
+pub(crate) mod lanes;
 mod walk;
 
 use crate::ray::{Hit, Ray};

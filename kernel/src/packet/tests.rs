@@ -7,20 +7,7 @@ use crate::node::{Axis, Node};
 use crate::tree::Bounds;
 use crate::triangle::Triangle;
 
-/// xorshift: deterministic, no dependencies.
-struct Rng(u64);
-
-impl Rng {
-    fn f(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn pick<T: Copy>(&mut self, xs: &[T]) -> T {
-        xs[(self.f() * xs.len() as f32) as usize % xs.len()]
-    }
-}
+use crate::test_rng::Rng;
 
 const SPLITS: [(Axis, f32); 3] = [(Axis::X, 0.5), (Axis::Z, 0.25), (Axis::Y, 0.5)];
 

@@ -30,7 +30,6 @@
 
 use super::lane_rays::LaneRays;
 use super::lanes::Lanes;
-use crate::node::Node;
 use crate::ray::{Hit, MISS};
 use crate::traverse::{Closest, LeafIter};
 use crate::tree::{TriangleTree, MAX_DEPTH};
@@ -276,28 +275,13 @@ impl<'a> TriangleTree<'a> {
                 // NaN t_split visits both.
                 let near = lanes & !t_split.lt(lo);
                 let far = lanes & !(near & t_split.gt(hi));
-                // The near child by the single ray's one-shift rule (no
-                // table load on the node-to-node chain); the far one with
-                // the bits flipped.
-                let first = node.first_child(lr.above_first_nibbles);
-                let second = node.first_child(!lr.above_first_nibbles);
-                // Both children in one load (they sit side by side): the
-                // next step needs one of them, and an empty cell has
-                // nothing to test, so its lanes skip it here rather than
-                // step into it and pop back out.
-                let Some(&[below, above]) = self
-                    .nodes
-                    .get(node.upper() as usize..)
-                    .and_then(|c| c.first_chunk())
+                // The near child by the single ray's one-shift rule, both
+                // children from one load; an empty one drops its lanes
+                // here (`TriangleTree::children`).
+                let Some((near_node, far_node, second)) =
+                    self.children(node, lr.above_first_nibbles)
                 else {
                     return;
-                };
-                // Selected as whole 8-byte words: one conditional move each.
-                let [below, above]: [u64; 2] = [below, above].map(bytemuck::cast);
-                let (near_node, far_node): (Node, Node) = if first == node.upper() {
-                    (bytemuck::cast(below), bytemuck::cast(above))
-                } else {
-                    (bytemuck::cast(above), bytemuck::cast(below))
                 };
                 let near = if near_node.is_empty_leaf() { 0 } else { near };
                 let far = if far_node.is_empty_leaf() { 0 } else { far };
@@ -309,7 +293,7 @@ impl<'a> TriangleTree<'a> {
                     return; // deeper than MAX_DEPTH: only an unchecked, invalid blob
                 };
                 *slot = Pending {
-                    node: second,
+                    node: second as u32,
                     lanes: far,
                     lo: far_lo,
                     hi,

@@ -77,6 +77,33 @@ impl CostModel {
     }
 }
 
+impl CostModel {
+    /// The cost of splitting with `n_below` and `n_above` triangles on
+    /// each side and `planar` ones lying in the plane, these put on the
+    /// cheaper side (below on a tie): (cost, planar triangles go below).
+    #[inline]
+    #[must_use]
+    pub(super) fn split_planar(
+        &self,
+        p_below: f64,
+        n_below: usize,
+        p_above: f64,
+        n_above: usize,
+        planar: usize,
+    ) -> (f64, bool) {
+        let below = self.split(p_below, n_below + planar, p_above, n_above);
+        if planar == 0 {
+            return (below, true);
+        }
+        let above = self.split(p_below, n_below, p_above, n_above + planar);
+        if below <= above {
+            (below, true)
+        } else {
+            (above, false)
+        }
+    }
+}
+
 /// The surface areas of a cell's two halves as fractions of the cell's,
 /// for planes along one axis, without building the boxes.
 #[derive(Clone, Copy, Debug)]

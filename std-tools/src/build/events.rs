@@ -22,8 +22,10 @@ pub(super) const START: u64 = 2;
 
 const TRI_MASK: u64 = (1 << 30) - 1;
 
-/// An `f32` as an integer with the same order (`-0` taken as `+0`).
-fn ordered(x: f32) -> u32 {
+/// An `f32` as an integer with the same order (`-0` taken as `+0`): the
+/// sort key of a position, bits 63..32 of its events.
+#[inline]
+pub(super) fn position_key(x: f32) -> u32 {
     let b = (x + 0.0).to_bits();
     if b >> 31 == 1 {
         !b
@@ -35,13 +37,19 @@ fn ordered(x: f32) -> u32 {
 /// The event of `kind` for triangle `tri` at `pos`.
 #[inline]
 pub(super) fn event(pos: f32, kind: u64, tri: u32) -> u64 {
-    (u64::from(ordered(pos)) << 32) | kind << 30 | (u64::from(tri) & TRI_MASK)
+    (u64::from(position_key(pos)) << 32) | kind << 30 | (u64::from(tri) & TRI_MASK)
+}
+
+/// The sort key of an event's position (see [`position_key`]).
+#[inline]
+pub(super) fn position_key_of(e: u64) -> u32 {
+    (e >> 32) as u32
 }
 
 /// The position of an event.
 #[inline]
 pub(super) fn pos(e: u64) -> f32 {
-    let o = (e >> 32) as u32;
+    let o = position_key_of(e);
     f32::from_bits(if o >> 31 == 1 { o & !(1 << 31) } else { !o })
 }
 

@@ -24,6 +24,7 @@ pub mod layout;
 mod median;
 mod monitor;
 mod sah;
+mod small;
 mod subdivide;
 
 pub use aabb::Aabb;

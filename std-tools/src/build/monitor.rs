@@ -6,7 +6,9 @@
 //! counter. So the counter only grows and ends exactly at `WHOLE`.
 //!
 //! Memory is the builder's working sets (event lists or clipped boxes)
-//! counted as they are made and dropped; the peak is what the build needed
+//! counted as they are made and dropped (a subtree of fewer than
+//! `JOIN_MIN` triangles is counted as its root's set until it is built, and
+//! reports its progress then); the peak is what the build needed
 //! beyond its input and output (reported per triangle by `kdray bench`).
 //! The peak depends on how the threads interleave; the tree does not.
 

@@ -32,7 +32,10 @@
 //! parallel chunks (perfect splits all the same); a cell below that size
 //! sorts its events and is swept exactly from there down. The sweep and
 //! the event split are O(N) per cell but serial per axis, which left one
-//! core idle at the top of the tree.
+//! core idle at the top of the tree. Cells of fewer than
+//! [`SMALL_MAX`] triangles drop their events again: they hold their
+//! boxes and find the same plane by comparisons ([`small`]), which is
+//! cheaper than keeping event lists sorted that near the leaves.
 
 use super::aabb::Aabb;
 use super::binned;
@@ -40,6 +43,7 @@ use super::boxes::{self, Item};
 use super::clip::{cut_box, split_boxes, PERFECT_MIN};
 use super::cost::{AreaRatios, CostModel};
 use super::events::{self, END, PLANAR, START};
+use super::small::{self, SMALL_MAX};
 use super::subdivide::{Choice, Splitter};
 use kdray_kernel::Triangle;
 use std::cell::RefCell;
@@ -139,6 +143,9 @@ pub(super) enum Cell {
     Boxes(Vec<Item>),
     /// Fewer, as sorted events.
     Events(Events),
+    /// Fewer than [`SMALL_MAX`], in index order: the exact SAH by
+    /// comparisons ([`small`](super::small)).
+    Small(Vec<Item>),
 }
 
 impl Cell {
@@ -146,6 +153,8 @@ impl Cell {
     fn of_items(items: Vec<Item>) -> Cell {
         if items.len() >= SWEEP_MAX {
             Cell::Boxes(items)
+        } else if items.len() < SMALL_MAX {
+            Cell::Small(items)
         } else {
             Cell::Events(Events::of_items(&items))
         }
@@ -171,8 +180,13 @@ struct Scratch {
     straddlers: Vec<u32>,
     /// The straddling triangles, clipped.
     clipped: Vec<Clipped>,
-    /// The straddlers' new events on one axis, below and above.
+    /// The straddlers' new events, below and above, axis after axis.
     new: [Vec<u64>; 2],
+    /// The one-sided events kept below and above, axis after axis.
+    kept: [Vec<u64>; 2],
+    /// Where each triangle's item is in a small child being made (indexed
+    /// by triangle, like `sides`).
+    slot: Vec<u32>,
 }
 
 thread_local! {
@@ -180,51 +194,132 @@ thread_local! {
     static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
 }
 
-/// Appends the events of `run` (one axis of the cell being split) that
-/// go below and above to `out`, merged with the clipped straddlers'
-/// events on `axis`, all in sweep order. One pass: the one-sided events
-/// are already sorted, only the straddlers' few new ones are sorted.
-fn split_run(
-    run: &[u64],
-    axis: usize,
-    sides: &[u8],
-    clipped: &[Clipped],
-    new: &mut [Vec<u64>; 2],
-    out: [&mut Vec<u64>; 2],
-) {
-    let [new_b, new_a] = new;
-    new_b.clear();
-    new_a.clear();
-    for (t, b, a) in clipped {
-        if let Some(b) = b {
-            events::push(new_b, b, axis, *t);
-        }
-        if let Some(a) = a {
-            events::push(new_a, a, axis, *t);
-        }
-    }
-    new_b.sort_unstable();
-    new_a.sort_unstable();
-    let [out_b, out_a] = out;
+/// Appends to `out` the merge of two sorted runs: `kept` (a side's
+/// one-sided events on one axis) and `new` (the straddlers' new events).
+/// The smaller head is picked by a select, not a branch: which run it
+/// comes from is unpredictable. (Binary-searching each new event's place
+/// was slower: straddlers are a third of a small cell's triangles.)
+fn merge_into(out: &mut Vec<u64>, kept: &[u64], new: &[u64]) {
     let (mut i, mut j) = (0, 0);
-    for &e in run {
+    while let (Some(&a), Some(&b)) = (kept.get(i), new.get(j)) {
         // Keys are unique, so the merge order is the sort order.
-        let (out, new, next) = match sides[events::tri(e) as usize] {
-            BELOW => (&mut *out_b, &*new_b, &mut i),
-            ABOVE => (&mut *out_a, &*new_a, &mut j),
-            _ => continue,
-        };
-        while let Some(&x) = new.get(*next).filter(|&&x| x < e) {
-            out.push(x);
-            *next += 1;
-        }
-        out.push(e);
+        let take_kept = a < b;
+        out.push(if take_kept { a } else { b });
+        i += usize::from(take_kept);
+        j += usize::from(!take_kept);
     }
-    out_b.extend_from_slice(&new_b[i..]);
-    out_a.extend_from_slice(&new_a[j..]);
+    out.extend_from_slice(&kept[i..]);
+    out.extend_from_slice(&new[j..]);
+}
+
+/// One child's events: per axis, the merge of its kept one-sided events
+/// (`kept`, axis runs ending at `kept_ends`) and the straddlers' new ones
+/// (`new`, runs ending at `new_ends`), in one exactly sized buffer.
+fn child_events(
+    kept: &[u64],
+    kept_ends: [usize; 3],
+    new: &[u64],
+    new_ends: [usize; 3],
+    n: usize,
+) -> Events {
+    let mut ev = Vec::with_capacity(kept_ends[2] + new_ends[2]);
+    let mut starts = [0; 2];
+    let (mut k, mut j) = (0, 0);
+    for axis in 0..3 {
+        if axis > 0 {
+            starts[axis - 1] = ev.len();
+        }
+        merge_into(&mut ev, &kept[k..kept_ends[axis]], &new[j..new_ends[axis]]);
+        (k, j) = (kept_ends[axis], new_ends[axis]);
+    }
+    Events { ev, starts, n }
+}
+
+/// One small child's items, from the same runs as [`child_events`]:
+/// each triangle's box is read off its events, so nothing is merged.
+/// `slot` is scratch indexed by triangle.
+fn child_items(
+    kept: &[u64],
+    kept_ends: [usize; 3],
+    new: &[u64],
+    new_ends: [usize; 3],
+    slot: &mut [u32],
+) -> Vec<Item> {
+    // The triangles in index order (a leaf lists them sorted): each has
+    // one event on axis 0 that is not an end.
+    let mut items: Vec<Item> = kept[..kept_ends[0]]
+        .iter()
+        .chain(&new[..new_ends[0]])
+        .filter(|&&e| events::kind(e) != END)
+        .map(|&e| Item {
+            tri: events::tri(e),
+            b: Aabb::EMPTY,
+        })
+        .collect();
+    items.sort_unstable_by_key(|it| it.tri);
+    for (i, it) in items.iter().enumerate() {
+        if let Some(s) = slot.get_mut(it.tri as usize) {
+            *s = i as u32;
+        }
+    }
+    let (mut k, mut j) = (0, 0);
+    for axis in 0..3 {
+        let run = kept[k..kept_ends[axis]].iter();
+        for &e in run.chain(&new[j..new_ends[axis]]) {
+            let s = slot.get(events::tri(e) as usize);
+            let Some(it) = s.and_then(|&s| items.get_mut(s as usize)) else {
+                continue;
+            };
+            let at = events::pos(e);
+            match events::kind(e) {
+                START => it.b.min[axis] = at,
+                END => it.b.max[axis] = at,
+                _ => (it.b.min[axis], it.b.max[axis]) = (at, at),
+            }
+        }
+        (k, j) = (kept_ends[axis], new_ends[axis]);
+    }
+    items
+}
+
+/// A child cell of `n` triangles from its runs: small ones as items
+/// ([`small`](super::small)), the others as events.
+fn child_cell(
+    kept: &[u64],
+    kept_ends: [usize; 3],
+    new: &[u64],
+    new_ends: [usize; 3],
+    n: usize,
+    slot: &mut [u32],
+) -> Cell {
+    if n < SMALL_MAX {
+        Cell::Small(child_items(kept, kept_ends, new, new_ends, slot))
+    } else {
+        Cell::Events(child_events(kept, kept_ends, new, new_ends, n))
+    }
 }
 
 impl EventSah<'_> {
+    /// The boxes of triangle `t`, straddling the plane at `pos` on `axis`,
+    /// in the children of `cell` (a cell of `n` triangles): clipped in
+    /// cells of at least [`PERFECT_MIN`] triangles, else the triangle's
+    /// box in the cell cut by the plane.
+    fn straddler(
+        &self,
+        n: usize,
+        t: u32,
+        cell: &Aabb,
+        axis: usize,
+        pos: f32,
+    ) -> (Option<Aabb>, Option<Aabb>) {
+        let tri = &self.triangles[t as usize];
+        if n >= PERFECT_MIN {
+            split_boxes(tri, cell, axis, pos)
+        } else {
+            cut_box(&Aabb::of_triangle(tri).intersect(cell), cell, axis, pos)
+        }
+    }
+
     /// The root cell from the triangles' boxes.
     pub(super) fn root(boxes: &[Aabb]) -> Cell {
         Cell::of_items(boxes::BoxSplitter::root(boxes))
@@ -233,38 +328,35 @@ impl EventSah<'_> {
     /// The cheapest plane on `axis` (first of equal costs).
     fn sweep(&self, ev: &[u64], n: usize, axis: usize, cell: &Aabb) -> Option<Choice> {
         let ratios = AreaRatios::new(cell, axis)?;
-        let (lo, hi) = (cell.min[axis], cell.max[axis]);
+        // Planes strictly inside the cell, compared as position keys: the
+        // key order is the position order, so no event is decoded to test it.
+        let (lo, hi) = (
+            events::position_key(cell.min[axis]),
+            events::position_key(cell.max[axis]),
+        );
         let mut best: Option<Choice> = None;
+        let mut best_cost = f64::INFINITY;
         let (mut n_below, mut n_above) = (0usize, n);
         let mut i = 0;
-        while i < ev.len() {
-            let at = ev[i] >> 32;
-            let mut count = [0usize; 3];
-            while i < ev.len() && ev[i] >> 32 == at {
-                count[events::kind(ev[i]) as usize] += 1;
+        while let Some(&first) = ev.get(i) {
+            let at = events::position_key_of(first);
+            // The events at this position, counted by kind in registers.
+            let (mut ends, mut planars, mut starts) = (0usize, 0usize, 0usize);
+            while let Some(&e) = ev.get(i).filter(|&&e| events::position_key_of(e) == at) {
+                let kind = events::kind(e);
+                ends += usize::from(kind == END);
+                planars += usize::from(kind == PLANAR);
+                starts += usize::from(kind == START);
                 i += 1;
             }
-            let [ends, planars, starts] = [
-                count[END as usize],
-                count[PLANAR as usize],
-                count[START as usize],
-            ];
             n_above -= planars + ends;
-            let pos = events::pos(ev[i - 1]);
-            if pos > lo && pos < hi {
+            if at > lo && at < hi {
+                let pos = events::pos(first);
                 let (pb, pa) = ratios.at(pos);
-                let below = self.cost.split(pb, n_below + planars, pa, n_above);
-                let above = if planars == 0 {
-                    below
-                } else {
-                    self.cost.split(pb, n_below, pa, n_above + planars)
-                };
-                let (planar_below, cost) = if below <= above {
-                    (true, below)
-                } else {
-                    (false, above)
-                };
-                if best.is_none_or(|b| cost < b.cost.unwrap_or(f64::INFINITY)) {
+                let (cost, planar_below) =
+                    self.cost.split_planar(pb, n_below, pa, n_above, planars);
+                if best.is_none() || cost < best_cost {
+                    best_cost = cost;
                     best = Some(Choice {
                         axis,
                         pos,
@@ -286,7 +378,7 @@ impl EventSah<'_> {
         cell: &Aabb,
         c: &Choice,
         scratch: &mut Scratch,
-    ) -> (Events, Events) {
+    ) -> (Cell, Cell) {
         let (k, p) = (c.axis, c.pos);
         let on_k = set.axis(k);
         let sides = &mut scratch.sides;
@@ -323,13 +415,7 @@ impl EventSah<'_> {
         let sides = &*sides;
         // Straddling triangles: clip to each child's cell.
         let clip = |&t: &u32| {
-            let tri = &self.triangles[t as usize];
-            let (b, a) = if set.n >= PERFECT_MIN {
-                split_boxes(tri, cell, k, p)
-            } else {
-                // Small cells: the triangle's box in the cell, cut.
-                cut_box(&Aabb::of_triangle(tri).intersect(cell), cell, k, p)
-            };
+            let (b, a) = self.straddler(set.n, t, cell, k, p);
             (t, b, a)
         };
         let clipped = &mut scratch.clipped;
@@ -338,37 +424,54 @@ impl EventSah<'_> {
         let clipped = &*clipped;
         nb += clipped.iter().filter(|c| c.1.is_some()).count();
         na += clipped.iter().filter(|c| c.2.is_some()).count();
-        // Each side holds at most the cell's events plus the straddlers'
-        // new ones; the spare room is given back at the end.
-        let room = set.ev.len() + 6 * clipped.len();
-        let (mut b, mut a) = (Vec::with_capacity(room), Vec::with_capacity(room));
-        let (mut sb, mut sa) = ([0; 2], [0; 2]);
-        for axis in 0..3 {
-            if axis > 0 {
-                (sb[axis - 1], sa[axis - 1]) = (b.len(), a.len());
-            }
-            split_run(
-                set.axis(axis),
-                axis,
-                sides,
-                clipped,
-                &mut scratch.new,
-                [&mut b, &mut a],
-            );
+        // The one-sided events, filtered without a branch per event:
+        // each is written to both sides and kept where its triangle goes
+        // (a straddler's old events are kept by neither).
+        let ev = &set.ev;
+        let [kb, ka] = &mut scratch.kept;
+        if kb.len() < ev.len() {
+            kb.resize(ev.len(), 0);
+            ka.resize(ev.len(), 0);
         }
-        b.shrink_to_fit();
-        a.shrink_to_fit();
+        let (mut ib, mut ia) = (0, 0);
+        let (mut kept_b, mut kept_a) = ([0; 3], [0; 3]);
+        let [one, two] = set.starts;
+        for (axis, run) in [&ev[..one], &ev[one..two], &ev[two..]]
+            .into_iter()
+            .enumerate()
+        {
+            for &e in run {
+                let side = sides[events::tri(e) as usize];
+                kb[ib] = e;
+                ka[ia] = e;
+                ib += usize::from(side == BELOW);
+                ia += usize::from(side == ABOVE);
+            }
+            (kept_b[axis], kept_a[axis]) = (ib, ia);
+        }
+        // The straddlers' new events, each axis's run sorted.
+        let [new_b, new_a] = &mut scratch.new;
+        new_b.clear();
+        new_a.clear();
+        let (mut ends_b, mut ends_a) = ([0; 3], [0; 3]);
+        for axis in 0..3 {
+            let (fb, fa) = (new_b.len(), new_a.len());
+            for (t, b, a) in clipped {
+                if let Some(b) = b {
+                    events::push(new_b, b, axis, *t);
+                }
+                if let Some(a) = a {
+                    events::push(new_a, a, axis, *t);
+                }
+            }
+            new_b[fb..].sort_unstable();
+            new_a[fa..].sort_unstable();
+            (ends_b[axis], ends_a[axis]) = (new_b.len(), new_a.len());
+        }
+        let slot = &mut scratch.slot;
         (
-            Events {
-                ev: b,
-                starts: sb,
-                n: nb,
-            },
-            Events {
-                ev: a,
-                starts: sa,
-                n: na,
-            },
+            child_cell(kb, kept_b, new_b, ends_b, nb, slot),
+            child_cell(ka, kept_a, new_a, ends_a, na, slot),
         )
     }
 }
@@ -384,20 +487,21 @@ impl EventSah<'_> {
             })
     }
 
-    fn partition_events(&self, set: Events, cell: &Aabb, c: &Choice) -> (Events, Events) {
+    fn partition_events(&self, set: Events, cell: &Aabb, c: &Choice) -> (Cell, Cell) {
         // A plane that cuts off empty space (more than half the splits
         // near the leaves): one side takes every event as it is.
         match set.one_side(c) {
-            Some(BELOW) => return (set, Events::EMPTY),
-            Some(_) => return (Events::EMPTY, set),
+            Some(BELOW) => return (Cell::Events(set), Cell::Events(Events::EMPTY)),
+            Some(_) => return (Cell::Events(Events::EMPTY), Cell::Events(set)),
             None => {}
         }
-        // Event cells are small (below `SWEEP_MAX`) and split on one
-        // thread with no rayon calls inside, so the thread's own buffers
-        // cannot be borrowed twice.
+        // No rayon calls while the thread's own buffers are borrowed (the
+        // subtrees' joins come after the split), so they cannot be
+        // borrowed twice.
         SCRATCH.with_borrow_mut(|scratch| {
             if scratch.sides.len() < self.triangles.len() {
                 scratch.sides.resize(self.triangles.len(), BOTH);
+                scratch.slot.resize(self.triangles.len(), 0);
             }
             self.split_events(&set, cell, c, scratch)
         })
@@ -409,21 +513,21 @@ impl Splitter for EventSah<'_> {
 
     fn count(&self, set: &Cell) -> usize {
         match set {
-            Cell::Boxes(items) => items.len(),
+            Cell::Boxes(items) | Cell::Small(items) => items.len(),
             Cell::Events(ev) => ev.n,
         }
     }
 
     fn bytes(&self, set: &Cell) -> usize {
         match set {
-            Cell::Boxes(items) => boxes::bytes(items),
+            Cell::Boxes(items) | Cell::Small(items) => boxes::bytes(items),
             Cell::Events(ev) => ev.ev.capacity() * 8,
         }
     }
 
     fn prims(&self, set: Cell) -> Vec<u32> {
         match set {
-            Cell::Boxes(items) => boxes::prims(items),
+            Cell::Boxes(items) | Cell::Small(items) => boxes::prims(items),
             Cell::Events(ev) => {
                 let mut p: Vec<u32> = ev
                     .axis(0)
@@ -441,6 +545,7 @@ impl Splitter for EventSah<'_> {
         match set {
             Cell::Boxes(items) => binned::choose(items, cell, BINS, &self.cost),
             Cell::Events(ev) => self.choose_events(ev, cell),
+            Cell::Small(items) => small::choose(items, cell, &self.cost),
         }
     }
 
@@ -453,10 +558,63 @@ impl Splitter for EventSah<'_> {
                 });
                 rayon::join(|| Cell::of_items(b), || Cell::of_items(a))
             }
-            Cell::Events(ev) => {
-                let (b, a) = self.partition_events(ev, cell, c);
-                (Cell::Events(b), Cell::Events(a))
+            Cell::Events(ev) => self.partition_events(ev, cell, c),
+            Cell::Small(items) => {
+                let n = items.len();
+                let (b, a) = boxes::partition(items, c, |it| {
+                    self.straddler(n, it.tri, cell, c.axis, c.pos)
+                });
+                (Cell::Small(b), Cell::Small(a))
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Rng;
+
+    /// Boxes on a coarse grid inside the cell: shared edges, boxes lying
+    /// in planes, boxes touching the walls.
+    fn cell_items(rng: &mut Rng, n: usize) -> Vec<Item> {
+        let coord = |rng: &mut Rng| rng.below(9) as f32;
+        (0..n as u32)
+            .map(|tri| {
+                let (mut min, mut max) = ([0.0; 3], [0.0; 3]);
+                for a in 0..3 {
+                    let (x, y) = (coord(rng), coord(rng));
+                    (min[a], max[a]) = (x.min(y), x.max(y));
+                }
+                Item {
+                    tri,
+                    b: Aabb { min, max },
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn small_cells_choose_the_sweeps_plane() {
+        let s = EventSah {
+            triangles: &[],
+            cost: CostModel::from_params(&super::super::BuildParams::default()),
+        };
+        let cell = Aabb {
+            min: [0.0; 3],
+            max: [8.0, 8.0, 8.0],
+        };
+        let mut rng = Rng::new(3);
+        let mut splits = 0;
+        for round in 0..2000 {
+            let items = cell_items(&mut rng, 1 + round % (SMALL_MAX - 1));
+            let sweep = s.choose_events(&Events::of_items(&items), &cell);
+            let small = small::choose(&items, &cell, &s.cost);
+            let key =
+                |c: Option<Choice>| c.map(|c| (c.axis, c.pos.to_bits(), c.planar_below, c.cost));
+            assert_eq!(key(sweep), key(small), "round {round}: {items:?}");
+            splits += usize::from(small.is_some());
+        }
+        assert!(splits > 1000, "{splits}");
     }
 }

@@ -14,7 +14,7 @@
 //!   by count and depth, and when a split leaves one side with every
 //!   triangle or more than half of them straddle the plane.
 //!
-//! Subtrees above [`PARALLEL_MIN`] triangles are built with `rayon::join`.
+//! Subtrees of at least [`JOIN_MIN`] triangles are built with `rayon::join`.
 //! Every decision depends only on the cell and its triangles, never on
 //! which thread runs it, so the tree is the same for any thread count.
 
@@ -24,9 +24,16 @@ use super::monitor::BuildMonitor;
 use super::BuildNode;
 use kdray_kernel::Axis;
 
-/// Cells with at least this many triangles build their children in parallel
-/// (and builders may parallelise their own sweeps and partitions).
+/// Cells with at least this many triangles may parallelise their own
+/// tallies and partitions, in chunks of this size.
 pub(super) const PARALLEL_MIN: usize = 4096;
+
+/// Cells with at least this many triangles build their two children in
+/// parallel. Far below [`PARALLEL_MIN`]: a join costs about a microsecond,
+/// and with subtrees of up to 4096 triangles as the smallest tasks one
+/// core sat idle for the last of them (and could not help a core slowed
+/// by other work).
+pub(super) const JOIN_MIN: usize = 512;
 
 /// A split plane a builder picked.
 #[derive(Clone, Copy, Debug)]
@@ -78,14 +85,20 @@ pub(super) fn subdivide<S: Splitter>(
     monitor: &BuildMonitor,
 ) -> BuildNode {
     monitor.allocated(s.bytes(&set));
-    let walk = Walk { s, limits, monitor };
+    let walk = Walk {
+        s,
+        limits,
+        monitor: Some(monitor),
+    };
     walk.node(set, bounds, 0, 0, BuildMonitor::WHOLE).0
 }
 
 struct Walk<'a, S> {
     s: &'a S,
     limits: &'a Limits,
-    monitor: &'a BuildMonitor,
+    /// `None` inside a subtree of fewer than [`JOIN_MIN`] triangles: the
+    /// subtree's root reports for all of it (see [`Walk::node`]).
+    monitor: Option<&'a BuildMonitor>,
 }
 
 impl<S: Splitter> Walk<'_, S> {
@@ -93,6 +106,23 @@ impl<S: Splitter> Walk<'_, S> {
     /// `bad`: non-paying splits just above; `units`: its progress share.
     fn node(&self, set: S::Set, cell: Aabb, depth: u32, bad: u32, units: u64) -> (BuildNode, f64) {
         let n = self.s.count(&set);
+        if let Some(m) = self.monitor.filter(|_| n < JOIN_MIN) {
+            // A small subtree (on one thread) builds without touching the
+            // shared counters, whose cache line went back and forth
+            // between the cores for every cell: its working set is
+            // counted as its root's (the cells below it hold less at any
+            // time), its progress lands when it is done.
+            let bytes = self.s.bytes(&set);
+            let quiet = Walk {
+                s: self.s,
+                limits: self.limits,
+                monitor: None,
+            };
+            let built = quiet.node(set, cell, depth, bad, units);
+            m.freed(bytes);
+            m.finished(units);
+            return built;
+        }
         let leaf_cost = self.limits.cost.leaf(n);
         let extent = (0..3).fold(0.0f32, |m, a| m.max(cell.max[a] - cell.min[a]));
         if n == 0 || depth >= self.limits.depth || extent < self.limits.min_extent {
@@ -107,18 +137,20 @@ impl<S: Splitter> Walk<'_, S> {
         }
         let set_bytes = self.s.bytes(&set);
         let (below, above) = self.s.partition(set, &cell, &c);
-        self.monitor
-            .allocated(self.s.bytes(&below) + self.s.bytes(&above));
-        self.monitor.freed(set_bytes);
+        if let Some(m) = self.monitor {
+            m.allocated(self.s.bytes(&below) + self.s.bytes(&above));
+            m.freed(set_bytes);
+        }
         let (nb, na) = (self.s.count(&below), self.s.count(&above));
         if c.cost.is_none() && (nb.max(na) == n || 2 * (nb + na) > 3 * n) {
             // A baseline made no progress (one half holds everything) or
             // more than half the triangles straddle the plane: the cells
             // are already smaller than the triangles, and splitting on
             // would only multiply references.
-            self.monitor
-                .freed(self.s.bytes(&below) + self.s.bytes(&above));
-            self.monitor.finished(units);
+            if let Some(m) = self.monitor {
+                m.freed(self.s.bytes(&below) + self.s.bytes(&above));
+                m.finished(units);
+            }
             let mut prims = self.s.prims(below);
             prims.extend(self.s.prims(above));
             return (merged_leaf(prims), leaf_cost);
@@ -132,7 +164,7 @@ impl<S: Splitter> Walk<'_, S> {
         let bad = bad + u32::from(!pays);
         let go_below = || self.node(below, cb, depth + 1, bad, ub);
         let go_above = || self.node(above, ca, depth + 1, bad, units - ub);
-        let ((below, cost_b), (above, cost_a)) = if n >= PARALLEL_MIN {
+        let ((below, cost_b), (above, cost_a)) = if n >= JOIN_MIN {
             rayon::join(go_below, go_above)
         } else {
             (go_below(), go_above())
@@ -159,8 +191,10 @@ impl<S: Splitter> Walk<'_, S> {
     }
 
     fn leaf(&self, set: S::Set, units: u64) -> BuildNode {
-        self.monitor.freed(self.s.bytes(&set));
-        self.monitor.finished(units);
+        if let Some(m) = self.monitor {
+            m.freed(self.s.bytes(&set));
+            m.finished(units);
+        }
         BuildNode::Leaf(self.s.prims(set))
     }
 }

@@ -212,90 +212,91 @@ fn merge_into(out: &mut Vec<u64>, kept: &[u64], new: &[u64]) {
     out.extend_from_slice(&new[j..]);
 }
 
-/// One child's events: per axis, the merge of its kept one-sided events
+/// One child's events as sorted runs, per axis: its kept one-sided events
 /// (`kept`, axis runs ending at `kept_ends`) and the straddlers' new ones
-/// (`new`, runs ending at `new_ends`), in one exactly sized buffer.
-fn child_events(
-    kept: &[u64],
+/// (`new`, runs ending at `new_ends`).
+struct ChildRuns<'a> {
+    kept: &'a [u64],
     kept_ends: [usize; 3],
-    new: &[u64],
+    new: &'a [u64],
     new_ends: [usize; 3],
-    n: usize,
-) -> Events {
-    let mut ev = Vec::with_capacity(kept_ends[2] + new_ends[2]);
-    let mut starts = [0; 2];
-    let (mut k, mut j) = (0, 0);
-    for axis in 0..3 {
-        if axis > 0 {
-            starts[axis - 1] = ev.len();
-        }
-        merge_into(&mut ev, &kept[k..kept_ends[axis]], &new[j..new_ends[axis]]);
-        (k, j) = (kept_ends[axis], new_ends[axis]);
-    }
-    Events { ev, starts, n }
 }
 
-/// One small child's items, from the same runs as [`child_events`]:
-/// each triangle's box is read off its events, so nothing is merged.
-/// `slot` is scratch indexed by triangle.
-fn child_items(
-    kept: &[u64],
-    kept_ends: [usize; 3],
-    new: &[u64],
-    new_ends: [usize; 3],
-    slot: &mut [u32],
-) -> Vec<Item> {
-    // The triangles in index order (a leaf lists them sorted): each has
-    // one event on axis 0 that is not an end.
-    let mut items: Vec<Item> = kept[..kept_ends[0]]
-        .iter()
-        .chain(&new[..new_ends[0]])
-        .filter(|&&e| events::kind(e) != END)
-        .map(|&e| Item {
-            tri: events::tri(e),
-            b: Aabb::EMPTY,
-        })
-        .collect();
-    items.sort_unstable_by_key(|it| it.tri);
-    for (i, it) in items.iter().enumerate() {
-        if let Some(s) = slot.get_mut(it.tri as usize) {
-            *s = i as u32;
-        }
+impl ChildRuns<'_> {
+    /// Axis `axis`'s two runs: kept, new.
+    fn axis(&self, axis: usize) -> (&[u64], &[u64]) {
+        let (k, j) = match axis {
+            0 => (0, 0),
+            _ => (self.kept_ends[axis - 1], self.new_ends[axis - 1]),
+        };
+        (
+            &self.kept[k..self.kept_ends[axis]],
+            &self.new[j..self.new_ends[axis]],
+        )
     }
-    let (mut k, mut j) = (0, 0);
-    for axis in 0..3 {
-        let run = kept[k..kept_ends[axis]].iter();
-        for &e in run.chain(&new[j..new_ends[axis]]) {
-            let s = slot.get(events::tri(e) as usize);
-            let Some(it) = s.and_then(|&s| items.get_mut(s as usize)) else {
-                continue;
-            };
-            let at = events::pos(e);
-            match events::kind(e) {
-                START => it.b.min[axis] = at,
-                END => it.b.max[axis] = at,
-                _ => (it.b.min[axis], it.b.max[axis]) = (at, at),
+
+    /// The child's events: per axis, the merge of its two runs, in one
+    /// exactly sized buffer.
+    fn events(&self, n: usize) -> Events {
+        let mut ev = Vec::with_capacity(self.kept_ends[2] + self.new_ends[2]);
+        let mut starts = [0; 2];
+        for axis in 0..3 {
+            if axis > 0 {
+                starts[axis - 1] = ev.len();
+            }
+            let (kept, new) = self.axis(axis);
+            merge_into(&mut ev, kept, new);
+        }
+        Events { ev, starts, n }
+    }
+
+    /// A small child's items: each triangle's box is read off its events,
+    /// so nothing is merged. `slot` is scratch indexed by triangle.
+    fn items(&self, slot: &mut [u32]) -> Vec<Item> {
+        // The triangles in index order (a leaf lists them sorted): each has
+        // one event on axis 0 that is not an end.
+        let (kept0, new0) = self.axis(0);
+        let mut items: Vec<Item> = kept0
+            .iter()
+            .chain(new0)
+            .filter(|&&e| events::kind(e) != END)
+            .map(|&e| Item {
+                tri: events::tri(e),
+                b: Aabb::EMPTY,
+            })
+            .collect();
+        items.sort_unstable_by_key(|it| it.tri);
+        for (i, it) in items.iter().enumerate() {
+            if let Some(s) = slot.get_mut(it.tri as usize) {
+                *s = i as u32;
             }
         }
-        (k, j) = (kept_ends[axis], new_ends[axis]);
+        for axis in 0..3 {
+            let (kept, new) = self.axis(axis);
+            for &e in kept.iter().chain(new) {
+                let s = slot.get(events::tri(e) as usize);
+                let Some(it) = s.and_then(|&s| items.get_mut(s as usize)) else {
+                    continue;
+                };
+                let at = events::pos(e);
+                match events::kind(e) {
+                    START => it.b.min[axis] = at,
+                    END => it.b.max[axis] = at,
+                    _ => (it.b.min[axis], it.b.max[axis]) = (at, at),
+                }
+            }
+        }
+        items
     }
-    items
-}
 
-/// A child cell of `n` triangles from its runs: small ones as items
-/// ([`small`](super::small)), the others as events.
-fn child_cell(
-    kept: &[u64],
-    kept_ends: [usize; 3],
-    new: &[u64],
-    new_ends: [usize; 3],
-    n: usize,
-    slot: &mut [u32],
-) -> Cell {
-    if n < SMALL_MAX {
-        Cell::Small(child_items(kept, kept_ends, new, new_ends, slot))
-    } else {
-        Cell::Events(child_events(kept, kept_ends, new, new_ends, n))
+    /// The child cell of `n` triangles: small ones as items
+    /// ([`small`](super::small)), the others as events.
+    fn cell(&self, n: usize, slot: &mut [u32]) -> Cell {
+        if n < SMALL_MAX {
+            Cell::Small(self.items(slot))
+        } else {
+            Cell::Events(self.events(n))
+        }
     }
 }
 
@@ -469,10 +470,19 @@ impl EventSah<'_> {
             (ends_b[axis], ends_a[axis]) = (new_b.len(), new_a.len());
         }
         let slot = &mut scratch.slot;
-        (
-            child_cell(kb, kept_b, new_b, ends_b, nb, slot),
-            child_cell(ka, kept_a, new_a, ends_a, na, slot),
-        )
+        let below = ChildRuns {
+            kept: kb,
+            kept_ends: kept_b,
+            new: new_b,
+            new_ends: ends_b,
+        };
+        let above = ChildRuns {
+            kept: ka,
+            kept_ends: kept_a,
+            new: new_a,
+            new_ends: ends_a,
+        };
+        (below.cell(nb, slot), above.cell(na, slot))
     }
 }
 

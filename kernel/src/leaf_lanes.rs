@@ -16,6 +16,7 @@
 
 use crate::packet::intersect::{watertight, LaneHits};
 use crate::packet::lanes::Lanes;
+use crate::ray::MISS;
 use crate::traverse::Closest;
 use crate::triangle::{ShearedRay, Triangle, TriangleHit};
 
@@ -25,20 +26,24 @@ use crate::triangle::{ShearedRay, Triangle, TriangleHit};
 pub(crate) const LANE_LEAF_MIN: usize = 3;
 
 /// A ray prepared for testing triangles in lanes: the scalar
-/// [`ShearedRay`]'s origin (permuted) and shear, splatted.
-pub(crate) struct LeafRay<'r, V, const N: usize> {
-    sr: &'r ShearedRay,
+/// [`ShearedRay`]'s permutation, and its origin (permuted) and shear,
+/// splatted.
+pub(crate) struct LeafRay<V, const N: usize> {
+    /// [`ShearedRay`]'s permutation, clamped to 2 so that the compiler
+    /// sees every index in range (it is never above 2).
+    k: [usize; 3],
     org: [V; 3],
     shear: [V; 3],
 }
 
-impl<'r, V: Lanes<N>, const N: usize> LeafRay<'r, V, N> {
+impl<V: Lanes<N>, const N: usize> LeafRay<V, N> {
     /// Splats `sr`'s constants.
     #[inline(always)]
-    pub(crate) fn new(sr: &'r ShearedRay) -> Self {
+    pub(crate) fn new(sr: &ShearedRay) -> Self {
+        let k = sr.k.map(|k| k.min(2));
         LeafRay {
-            sr,
-            org: sr.k.map(|k| V::splat(coord(&sr.org, k))),
+            k,
+            org: k.map(|k| V::splat(sr.org[k])),
             shear: sr.s.map(V::splat),
         }
     }
@@ -47,10 +52,10 @@ impl<'r, V: Lanes<N>, const N: usize> LeafRay<'r, V, N> {
     /// `[tmin, tmax]`.
     #[inline(always)]
     fn hits(&self, tris: &[Triangle], prims: &[u32], tmin: f32, tmax: f32) -> Option<LaneHits<V>> {
-        // Coordinate c of vertex j of each triangle in row 3j + c: scalar
+        // Coordinate c of vertex j of each triangle in row [j][c]: scalar
         // stores with fixed row indices, read back as vectors, permuted by
-        // choosing the rows (`k`, clamped so no index can be out of range).
-        let mut rows = [[0.0f32; N]; 9];
+        // choosing the rows (`k`).
+        let mut rows = [[[0.0f32; N]; 3]; 3];
         let mut live = 0u32;
         for (l, &p) in prims.iter().enumerate() {
             let Some(tri) = tris.get(p as usize) else {
@@ -59,57 +64,24 @@ impl<'r, V: Lanes<N>, const N: usize> LeafRay<'r, V, N> {
             // `prims` holds at most N: `l % N` is `l`, and proves it.
             let l = l % N;
             live |= 1 << l;
-            for (j, v) in tri.v.iter().enumerate() {
-                for (c, &x) in v.iter().enumerate() {
-                    rows[3 * j + c][l] = x;
+            for (row, v) in rows.iter_mut().zip(&tri.v) {
+                for (r, &x) in row.iter_mut().zip(v) {
+                    r[l] = x;
                 }
             }
         }
-        let k = self.sr.k.map(|k| k.min(2));
         // Each vertex relative to the origin, sheared so the ray is +z: the
         // scalar test's `rel`, lane by lane.
-        let rel = |j: usize| {
-            let x = V::from_array(rows[3 * j + k[0]]) - self.org[0];
-            let y = V::from_array(rows[3 * j + k[1]]) - self.org[1];
-            let z = V::from_array(rows[3 * j + k[2]]) - self.org[2];
+        let [kx, ky, kz] = self.k;
+        let rel = |row: &[[f32; N]; 3]| {
+            let x = V::from_array(row[kx]) - self.org[0];
+            let y = V::from_array(row[ky]) - self.org[1];
+            let z = V::from_array(row[kz]) - self.org[2];
             (x - self.shear[0] * z, y - self.shear[1] * z, z)
         };
-        let (a, b, c) = (rel(0), rel(1), rel(2));
+        let [vx, vy, vz] = &rows;
+        let (a, b, c) = (rel(vx), rel(vy), rel(vz));
         watertight(a, b, c, self.shear[2], live, V::splat(tmin), V::splat(tmax))
-    }
-
-    /// The closest of `tris[prims]` (at most `N`) that `sr` hits within
-    /// `[tmin, tmax]`: `(prim, hit)`.
-    #[inline(always)]
-    fn closest_of(
-        &self,
-        tris: &[Triangle],
-        prims: &[u32],
-        tmin: f32,
-        tmax: f32,
-    ) -> Option<(u32, TriangleHit)> {
-        let h = self.hits(tris, prims, tmin, tmax)?;
-        // The winner among this chunk's hits (usually one): each was found
-        // within [tmin, tmax], so the rule is a strict order on (t, prim).
-        let mut win: Option<(usize, f32, u32)> = None;
-        let mut hit = h.hit;
-        while hit != 0 {
-            let l = hit.trailing_zeros() as usize;
-            hit &= hit - 1;
-            let (t, p) = (h.t.lane(l), prims.get(l).copied().unwrap_or(u32::MAX));
-            if win.is_none_or(|(_, wt, wp)| t < wt || (t == wt && p < wp)) {
-                win = Some((l, t, p));
-            }
-        }
-        win.map(|(l, t, p)| {
-            let hit = TriangleHit {
-                t,
-                v: h.v.lane(l),
-                w: h.w.lane(l),
-                det: h.det.lane(l),
-            };
-            (p, hit)
-        })
     }
 
     /// Tests the triangles `prims` over `[tmin, best.t]`, `N` at a time,
@@ -117,8 +89,31 @@ impl<'r, V: Lanes<N>, const N: usize> LeafRay<'r, V, N> {
     #[inline(always)]
     pub(crate) fn closest(&self, tris: &[Triangle], prims: &[u32], tmin: f32, best: &mut Closest) {
         for chunk in prims.chunks(N) {
-            if let Some((p, h)) = self.closest_of(tris, chunk, tmin, best.t) {
-                best.keep(h, p);
+            let Some(h) = self.hits(tris, chunk, tmin, best.t) else {
+                continue;
+            };
+            // The chunk's winner (usually its one hit lane) by the closest-hit
+            // rule, then offered once: each lane hit within [tmin, best.t],
+            // as `Closest::keep` requires. (Offering every hit lane to `keep`
+            // instead measured 2-3% slower on camera rays.)
+            let mut win: Option<(usize, f32, u32)> = None;
+            let mut hit = h.hit;
+            while hit != 0 {
+                let l = hit.trailing_zeros() as usize;
+                hit &= hit - 1;
+                let (t, p) = (h.t.lane(l), chunk.get(l).copied().unwrap_or(MISS));
+                if win.is_none_or(|(_, wt, wp)| t < wt || (t == wt && p < wp)) {
+                    win = Some((l, t, p));
+                }
+            }
+            if let Some((l, t, p)) = win {
+                let lane_hit = TriangleHit {
+                    t,
+                    v: h.v.lane(l),
+                    w: h.w.lane(l),
+                    det: h.det.lane(l),
+                };
+                best.keep(lane_hit, p);
             }
         }
     }
@@ -130,13 +125,6 @@ impl<'r, V: Lanes<N>, const N: usize> LeafRay<'r, V, N> {
             .chunks(N)
             .any(|chunk| self.hits(tris, chunk, tmin, tmax).is_some())
     }
-}
-
-/// `p[k]` (NaN for `k >= 3`, which `ShearedRay` never holds): no panicking
-/// index in the leaf loop.
-#[inline(always)]
-fn coord(p: &[f32; 3], k: usize) -> f32 {
-    p.get(k).copied().unwrap_or(f32::NAN)
 }
 
 /// The closest-hit leaf test in `f32x8` lanes: [`LeafRay::closest`]. Out
@@ -170,7 +158,8 @@ mod tests {
     //! Lanes against the scalar test over the same triangles, bitwise:
     //! grid-snapped triangles (rays through shared edges and vertices,
     //! exact-zero edge functions), repeated triangles (equal `t`, so the
-    //! lower index must win) and axis-aligned rays.
+    //! lower index must win), leaves listed in any order and axis-aligned
+    //! rays.
     use super::*;
     use crate::ray::Ray;
     use crate::test_rng::Rng;
@@ -187,19 +176,16 @@ mod tests {
         }
     }
 
-    /// The scalar answers over `tris[prims]`: brute force over that list,
-    /// with the hit's triangle mapped back to its index in `tris`.
-    fn scalar(tris: &[Triangle], prims: &[u32], ray: &Ray) -> ([u32; 4], bool) {
-        let list: [Triangle; 16] = core::array::from_fn(|i| tris[prims[i % prims.len()] as usize]);
-        let list = &list[..prims.len()];
-        let h = closest_hit_brute(list, ray);
-        let mut bits = h.bits();
-        if h.is_hit() {
-            // Equal t: the lowest position wins in `list`; lanes compare
-            // triangle indices, so list them in increasing order.
-            bits[1] = prims[h.prim as usize];
+    /// The brute-force answers over `tris[prims]`: all of `tris`, with
+    /// the triangles not listed collapsed to a point (never hit), so each
+    /// keeps its index and the list's order plays no part.
+    fn brute(tris: &[Triangle; 12], prims: &[u32], ray: &Ray) -> ([u32; 4], bool) {
+        let mut listed = [Triangle { v: [[0.0; 3]; 3] }; 12];
+        for &p in prims {
+            listed[p as usize] = tris[p as usize];
         }
-        (bits, any_hit_brute(list, ray))
+        let h = closest_hit_brute(&listed, ray);
+        (h.bits(), any_hit_brute(&listed, ray))
     }
 
     fn lanes<V: Lanes<N>, const N: usize>(
@@ -230,10 +216,15 @@ mod tests {
             // another: ties at equal t, which the lower index must win.
             tris[3] = tris[1];
             tris[9] = tris[2];
-            // 4 to 12 triangles, in increasing index order (the scalar
-            // reference's tie rule is list position).
+            // 4 to 12 triangles, in increasing, decreasing or shuffled
+            // order (a blob's leaves need not be sorted).
             let n = 4 + round % 9;
-            let prims: [u32; 12] = core::array::from_fn(|i| i as u32);
+            let mut prims: [u32; 12] = core::array::from_fn(|i| i as u32);
+            match round % 3 {
+                0 => {}
+                1 => prims[..n].reverse(),
+                _ => prims[..n].swap(0, n - 1 - round % (n - 1)),
+            }
             let prims = &prims[..n];
             let o = [coord(&mut rng) - 0.5, coord(&mut rng) - 0.5, -1.0];
             let mut d = [
@@ -250,7 +241,7 @@ mod tests {
                 dir: d,
                 tmax: if round % 3 == 0 { 1.2 } else { f32::INFINITY },
             };
-            let want = scalar(&tris, prims, &ray);
+            let want = brute(&tris, prims, &ray);
             assert_eq!(lanes::<f32x4, 4>(&tris, prims, &ray), want, "round {round}");
             assert_eq!(lanes::<f32x8, 8>(&tris, prims, &ray), want, "round {round}");
             hits += usize::from(want.1);

@@ -281,7 +281,6 @@ mod tests {
                     let n = Node::interior(axis, 0.0, child).unwrap();
                     let first = n.first_child(mask);
                     assert_eq!(first, (child + above) as usize);
-                    assert_eq!(n.first_child(!mask), (child + 1 - above) as usize);
                     assert_eq!(n.other_child(first), (child + 1 - above) as usize);
                 }
             }

@@ -640,9 +640,7 @@ impl<'a> LeafIter<'a> {
             LeafPrims::Run(r) => LeafIter::Run(r.iter()),
         }
     }
-}
 
-impl<'a> LeafIter<'a> {
     /// The leaf's primitives as one slice when the leaf is tested in lanes
     /// (`LEAF_LANES`, and at least `LANE_LEAF_MIN` of them).
     #[inline(always)]

@@ -7,7 +7,8 @@
 //! - no triangles, the depth limit, or a cell smaller than the size
 //!   threshold makes a leaf;
 //! - a split whose cost (children taken as leaves) is not below the leaf's
-//!   is still tried, up to `lookahead` such splits in a row, because the
+//!   is still tried, up to `lookahead` such splits in a row and when it
+//!   costs at most `lookahead_margin` times the leaf, because the
 //!   children's own splits may pay; a subtree whose measured cost is not
 //!   below the leaf's is then collapsed back into a leaf;
 //! - builders without a cost model (the median and middle baselines) stop
@@ -74,6 +75,8 @@ pub(super) struct Limits {
     pub(super) min_extent: f32,
     /// Non-paying splits allowed in a row.
     pub(super) lookahead: u32,
+    /// The dearest non-paying split tried, as a factor of the leaf's cost.
+    pub(super) lookahead_margin: f64,
 }
 
 /// Builds the tree over `set` in `bounds`.
@@ -132,7 +135,10 @@ impl<S: Splitter> Walk<'_, S> {
             return (self.leaf(set, units), leaf_cost);
         };
         let pays = c.cost.is_none_or(|x| x < leaf_cost);
-        if !pays && bad >= self.limits.lookahead {
+        let hopeless = c
+            .cost
+            .is_some_and(|x| x > leaf_cost * self.limits.lookahead_margin);
+        if !pays && (bad >= self.limits.lookahead || hopeless) {
             return (self.leaf(set, units), leaf_cost);
         }
         let set_bytes = self.s.bytes(&set);

@@ -321,5 +321,5 @@ fn build_in_pool(
             subdivide::subdivide(&s, set, bounds, &limits, monitor)
         }
     };
-    flatten(&root, bounds.to_bounds())
+    flatten(root, bounds.to_bounds())
 }

@@ -187,13 +187,7 @@ impl<S: Splitter> Walk<'_, S> {
             return (merged_leaf(prims), leaf_cost);
         }
         let axis = Axis::from_index(c.axis).unwrap_or(Axis::X);
-        let node = BuildNode::Interior {
-            axis,
-            split: c.pos,
-            below: Box::new(below),
-            above: Box::new(above),
-        };
-        (node, cost)
+        (BuildNode::interior(axis, c.pos, below, above), cost)
     }
 
     fn leaf(&self, set: S::Set, units: u64) -> BuildNode {

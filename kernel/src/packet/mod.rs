@@ -1,4 +1,4 @@
-//! Ray packets: 4 or 8 rays traced together through one walk of the tree,
+//! Ray packets: 4, 8 or 16 rays traced together through one walk of the tree,
 //! each lane answering exactly as its single ray would, bit for bit.
 //!
 //! - [`Packet`] holds the rays in structure-of-arrays layout with a

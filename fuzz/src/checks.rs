@@ -115,9 +115,13 @@ impl<'a> Bytes<'a> {
             .collect()
     }
 
-    /// A packet: a lane mask byte, then the active lanes' rays.
+    /// A packet: a lane mask byte (two for more than 8 lanes), then the
+    /// active lanes' rays.
     pub fn packet<const N: usize>(&mut self) -> Packet<N> {
-        let mask = self.u8();
+        let mut mask = u32::from(self.u8());
+        if N > 8 {
+            mask |= u32::from(self.u8()) << 8;
+        }
         let mut p = Packet::EMPTY;
         for l in 0..N {
             if mask >> l & 1 == 1 {

@@ -214,7 +214,9 @@ impl<'a> TriangleTree<'a> {
     #[inline(always)]
     pub(crate) fn children(&self, node: Node, above_first: u64) -> Option<(Node, Node, usize)> {
         let first = node.first_child(above_first);
-        let &[below, above] = self.nodes.get(node.upper() as usize..)?.first_chunk()?;
+        let upper = node.upper() as usize;
+        // One bounds check for the pair (`upper` < 2^30: no overflow).
+        let &[below, above] = <&[Node; 2]>::try_from(self.nodes.get(upper..upper + 2)?).ok()?;
         let (near, far) = if first == node.upper() as usize {
             (below, above)
         } else {

@@ -215,8 +215,10 @@ impl<'a> TriangleTree<'a> {
     pub(crate) fn children(&self, node: Node, above_first: u64) -> Option<(Node, Node, usize)> {
         let first = node.first_child(above_first);
         let upper = node.upper() as usize;
-        // One bounds check for the pair (`upper` < 2^30: no overflow).
-        let &[below, above] = <&[Node; 2]>::try_from(self.nodes.get(upper..upper + 2)?).ok()?;
+        // One bounds check for the pair (the add is plain where `usize`
+        // holds 2^30 + 2, which the compiler sees).
+        let pair = self.nodes.get(upper..upper.saturating_add(2))?;
+        let &[below, above] = <&[Node; 2]>::try_from(pair).ok()?;
         let (near, far) = if first == node.upper() as usize {
             (below, above)
         } else {

@@ -143,9 +143,10 @@ pub enum PacketWidth {
     Eight,
     /// Packets of 16 (`f32x16`): one AVX-512 register per lane vector,
     /// where the walk's per-node work is that of 8 lanes and serves
-    /// twice the rays (bunny camera tiles: ~1.3x the rays per second of
-    /// 8 lanes, `docs/packets.md`). Without AVX-512, `wide` runs each
-    /// operation on two `f32x8` halves: measure before choosing it there.
+    /// twice the rays (bunny camera tiles: ~1.35x the rays per second of
+    /// 8 lanes, `docs/packets.md`). Built without AVX-512 the slice entry
+    /// points trace these slices 8 rays at a time (16 lanes would be two
+    /// registers per operation, no faster); the answers are the same.
     Sixteen,
 }
 
@@ -369,15 +370,24 @@ impl<'a> TriangleTree<'a> {
             PacketWidth::Four => {
                 in_packets::<f32x4, _, 4>(self, rays, out, |lr, st| Q::lanes(self, lr, st), one);
             }
-            PacketWidth::Eight => {
-                in_packets::<f32x8, _, 8>(self, rays, out, |lr, st| Q::lanes(self, lr, st), one);
-            }
-            PacketWidth::Sixteen => {
+            // 16 lanes only where they are one register (`PacketWidth::Sixteen`).
+            PacketWidth::Sixteen if SIXTEEN_LANES => {
                 in_packets::<f32x16, _, 16>(self, rays, out, |lr, st| Q::lanes(self, lr, st), one);
+            }
+            PacketWidth::Eight | PacketWidth::Sixteen => {
+                in_packets::<f32x8, _, 8>(self, rays, out, |lr, st| Q::lanes(self, lr, st), one);
             }
         }
     }
 }
+
+/// Whether the slice entry points trace `PacketWidth::Sixteen` in 16
+/// lanes: where an `f32x16` is one register (AVX-512). Elsewhere `wide`
+/// splits it into two `f32x8` or four `f32x4` per operation, and 8-lane
+/// packets are as fast or faster (bunny camera tiles, an AVX2 build on
+/// the same machine: 16 lanes 0.614 s, 8 lanes 0.600 s), so those
+/// slices go 8 at a time.
+const SIXTEEN_LANES: bool = cfg!(target_feature = "avx512f");
 
 /// A query the slice entry points run, as a single ray and over lanes.
 trait SliceQuery {

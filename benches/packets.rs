@@ -1,9 +1,10 @@
-//! Single rays vs 4- and 8-wide packets on the Stanford bunny
+//! Single rays vs 4-, 8- and 16-wide packets on the Stanford bunny
 //! (`../shared/meshes/stanford-bunny.obj`; skipped with a message when
 //! absent), one thread:
 //! - `camera`: 1024x1024 pinhole rays framing the bunny, ordered in 4x2
-//!   pixel tiles, so 8-wide packets are 4x2 tiles and 4-wide packets the
-//!   tiles' 4x1 rows (closest hit);
+//!   pixel tiles, so 8-wide packets are 4x2 tiles, 4-wide packets the
+//!   tiles' 4x1 rows and 16-wide ones two tiles side by side (closest
+//!   hit);
 //! - `shadow`: from each camera hit towards a point light, same order
 //!   (any hit);
 //! - `random`: 2^20 rays with random origins in the bunny's box and random
@@ -21,10 +22,11 @@ use std::hint::black_box;
 use std::path::Path;
 
 const SIDE: usize = 1024;
-const WIDTHS: [(PacketWidth, &str); 3] = [
+const WIDTHS: [(PacketWidth, &str); 4] = [
     (PacketWidth::One, "single"),
     (PacketWidth::Four, "4"),
     (PacketWidth::Eight, "8"),
+    (PacketWidth::Sixteen, "16"),
 ];
 
 /// A deterministic LCG in [0, 1).

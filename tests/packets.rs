@@ -3,7 +3,9 @@
 //! planes), adversarial rays and camera-like coherent packets.
 
 use glam::Vec3;
-use kdray::kernel::{Hit, Packet, Packet4, Packet8, PacketWidth, Ray, Triangle, TriangleTree};
+use kdray::kernel::{
+    Hit, Packet, Packet16, Packet4, Packet8, PacketWidth, Ray, Triangle, TriangleTree,
+};
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::build::{build, BuildParams, BuilderKind};
 
@@ -107,6 +109,17 @@ fn check_rays(tree: &TriangleTree, rays: &[Ray], rng: &mut Rng) -> usize {
             assert_lanes(tree, &p4, tree.closest_hit4(&p4), tree.any_hit4(&p4));
         }
     }
+    for chunk in rays.chunks(16) {
+        let mut p16 = Packet16::from_rays(chunk);
+        for l in 0..16 {
+            if rng.f32() < 0.12 {
+                p16.valid[l] = false;
+            }
+        }
+        for p in [p16, share_signs(&p16)] {
+            assert_lanes(tree, &p, tree.closest_hit16(&p), tree.any_hit16(&p));
+        }
+    }
     hits
 }
 
@@ -175,6 +188,15 @@ fn camera_tiles_and_shadow_rays() {
             assert_lanes(&tree, &s, tree.closest_hit8(&s), tree.any_hit8(&s));
             hits += h8.iter().filter(|h| h.is_hit()).count();
         }
+        // 16 lanes: two 4x2 tiles side by side.
+        for tx in (0..w).step_by(8) {
+            let dirs: [Vec3; 16] = std::array::from_fn(|l| {
+                let (x, y) = (tx + l % 4 + 4 * (l / 8), ty + l / 4 % 2);
+                Vec3::new(x as f32 / w as f32 - 0.5, y as f32 / h as f32 - 0.5, -1.0) * 0.5
+            });
+            let p = Packet16::from_vec3([eye; 16], dirs, 0.0, f32::INFINITY);
+            assert_lanes(&tree, &p, tree.closest_hit16(&p), tree.any_hit16(&p));
+        }
     }
     assert!(hits > 1000, "only {hits} camera hits");
 }
@@ -199,7 +221,12 @@ fn slice_entry_points_match_single_rays() {
         let want: Vec<[u32; 4]> = rays.iter().map(|r| tree.closest_hit(r).bits()).collect();
         let want_any: Vec<bool> = rays.iter().map(|r| tree.any_hit(r)).collect();
         assert!(want_any.iter().filter(|&&a| a).count() > 100);
-        for width in [PacketWidth::One, PacketWidth::Four, PacketWidth::Eight] {
+        for width in [
+            PacketWidth::One,
+            PacketWidth::Four,
+            PacketWidth::Eight,
+            PacketWidth::Sixteen,
+        ] {
             let mut hits = vec![Hit::OCCLUDED; rays.len()];
             tree.closest_hits_with(width, &rays, &mut hits);
             assert_eq!(

@@ -12,7 +12,8 @@
 
 use kdray::kernel::wire::{blob_checksum, Header, ENDIAN_CHECK, KIND_TRIANGLES, MAGIC, VERSION};
 use kdray::kernel::{
-    any_hit_brute, closest_hit_brute, Hit, Packet, Packet4, Packet8, Ray, Triangle, TriangleTree,
+    any_hit_brute, closest_hit_brute, Hit, Packet, Packet16, Packet4, Packet8, Ray, Triangle,
+    TriangleTree,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::build::{build, BuildParams, BuilderKind};
@@ -114,9 +115,13 @@ impl<'a> Bytes<'a> {
             .collect()
     }
 
-    /// A packet: a lane mask byte, then the active lanes' rays.
+    /// A packet: a lane mask byte (two for more than 8 lanes), then the
+    /// active lanes' rays.
     pub fn packet<const N: usize>(&mut self) -> Packet<N> {
-        let mask = self.u8();
+        let mut mask = u32::from(self.u8());
+        if N > 8 {
+            mask |= u32::from(self.u8()) << 8;
+        }
         let mut p = Packet::EMPTY;
         for l in 0..N {
             if mask >> l & 1 == 1 {
@@ -217,21 +222,32 @@ pub fn packet_vs_single(data: &[u8]) {
     };
     let tree = blob.tree().expect("the builder's blob validates");
     while !r.rest().is_empty() {
-        // Bit 0: the width; bit 1: direction signs made to agree, so the
-        // lanes walk together (packets with mixed signs go lane by lane).
+        // Bits 0 and 2: the width; bit 1: direction signs made to agree,
+        // so the lanes walk together (packets with mixed signs go lane by
+        // lane).
         let how = r.u8();
-        if how & 1 == 0 {
-            let mut p: Packet8 = r.packet();
-            if how & 2 != 0 {
-                share_signs(&mut p);
+        match how & 5 {
+            0 => {
+                let mut p: Packet8 = r.packet();
+                if how & 2 != 0 {
+                    share_signs(&mut p);
+                }
+                assert_lanes(&tree, &p, tree.closest_hit8(&p), tree.any_hit8(&p));
             }
-            assert_lanes(&tree, &p, tree.closest_hit8(&p), tree.any_hit8(&p));
-        } else {
-            let mut p: Packet4 = r.packet();
-            if how & 2 != 0 {
-                share_signs(&mut p);
+            1 => {
+                let mut p: Packet4 = r.packet();
+                if how & 2 != 0 {
+                    share_signs(&mut p);
+                }
+                assert_lanes(&tree, &p, tree.closest_hit4(&p), tree.any_hit4(&p));
             }
-            assert_lanes(&tree, &p, tree.closest_hit4(&p), tree.any_hit4(&p));
+            _ => {
+                let mut p: Packet16 = r.packet();
+                if how & 2 != 0 {
+                    share_signs(&mut p);
+                }
+                assert_lanes(&tree, &p, tree.closest_hit16(&p), tree.any_hit16(&p));
+            }
         }
     }
 }

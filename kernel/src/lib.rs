@@ -8,7 +8,7 @@
 //! - [`TriangleTree::closest_hit`] and [`TriangleTree::any_hit`] trace one
 //!   ray with the lecture's non-recursive loop on a fixed stack of
 //!   [`MAX_DEPTH`] entries; [`TriangleTree::closest_hit8`] and friends
-//!   ([`packet`]) trace 4 or 8 rays at once with the same answers.
+//!   ([`packet`]) trace 4, 8 or 16 rays at once with the same answers.
 //! - [`PointTree::from_bytes`] does the same for a point tree, which
 //!   answers [`PointTree::nearest`], [`PointTree::knn`] and
 //!   [`PointTree::within`] exactly as brute force does.
@@ -54,7 +54,8 @@
 //! - **No allocation**, no `std`, no recursion. Stack: the single-ray walk
 //!   keeps [`MAX_DEPTH`] = 64 pending cells of 12 bytes (768 bytes); a
 //!   packet walk 64 entries of a lane-vector interval each (3 KiB for 4
-//!   lanes, 6 KiB for 8, on x86-64); a point query 64 entries of 8 bytes.
+//!   lanes, 6 KiB for 8, 12 KiB for 16, on x86-64); a point query 64
+//!   entries of 8 bytes.
 //!   Trees deeper than [`MAX_DEPTH`] are refused by validation.
 //! - **Exactness**: the closest hit is bit for bit the one
 //!   [`closest_hit_brute`] finds over all triangles with the same watertight
@@ -83,7 +84,7 @@ pub mod wire;
 
 pub use error::BlobError;
 pub use node::{Axis, Node, NodeKind};
-pub use packet::{Packet, Packet4, Packet8, PacketWidth};
+pub use packet::{Packet, Packet16, Packet4, Packet8, PacketWidth};
 pub use points::{
     distance2, knn_brute, nearest_brute, within_brute, BufferTooSmall, Neighbour, PointTree,
 };

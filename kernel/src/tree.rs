@@ -214,7 +214,11 @@ impl<'a> TriangleTree<'a> {
     #[inline(always)]
     pub(crate) fn children(&self, node: Node, above_first: u64) -> Option<(Node, Node, usize)> {
         let first = node.first_child(above_first);
-        let &[below, above] = self.nodes.get(node.upper() as usize..)?.first_chunk()?;
+        let upper = node.upper() as usize;
+        // One bounds check for the pair (the add is plain where `usize`
+        // holds 2^30 + 2, which the compiler sees).
+        let pair = self.nodes.get(upper..upper.saturating_add(2))?;
+        let &[below, above] = <&[Node; 2]>::try_from(pair).ok()?;
         let (near, far) = if first == node.upper() as usize {
             (below, above)
         } else {

@@ -1,5 +1,5 @@
 //! Tracing many rays on all threads of the current rayon pool, one ray at
-//! a time or in 4/8-wide packets.
+//! a time or in 4-, 8- or 16-wide packets.
 //!
 //! Packets are formed from consecutive rays, so they pay only when
 //! neighbouring rays are coherent: order ray files in small image tiles

@@ -135,7 +135,7 @@ fn trace_packets_match_single_rays() {
     let rays = write(&tmp("pk.rays"), &ray_bytes(&rays));
     for any in [false, true] {
         let mut reference: Option<Vec<u8>> = None;
-        for (packet, threads) in [("1", "1"), ("4", "2"), ("8", "1"), ("8", "2")] {
+        for (packet, threads) in [("1", "1"), ("4", "2"), ("8", "1"), ("8", "2"), ("16", "2")] {
             let hits = tmp(&format!("pk-{packet}-{threads}-{any}.hits"));
             let hits_s = hits.display().to_string();
             let mut args = vec![
@@ -173,7 +173,7 @@ fn trace_packets_match_single_rays() {
     let out = tmp("pk-bad.hits").display().to_string();
     let o = kdray(&["trace", &tree, &rays, "-o", &out, "--packet", "3"]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("1, 4 or 8"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("1, 4, 8 or 16"), "{}", stderr(&o));
 }
 
 #[test]
@@ -242,6 +242,7 @@ fn render_writes_pictures_and_refuses_bad_flags() {
         &["--heatmap"],
         &["--packet", "4"],
         &["--packet", "1"],
+        &["--packet", "16"],
     ] {
         let _ = std::fs::remove_file(&png);
         let mut args = vec![
@@ -256,7 +257,7 @@ fn render_writes_pictures_and_refuses_bad_flags() {
     }
     let o = kdray(&["render", &obj, "-o", &png, "--packet", "3"]);
     assert!(!o.status.success());
-    assert!(stderr(&o).contains("1, 4 or 8"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("1, 4, 8 or 16"), "{}", stderr(&o));
     let o = kdray(&["render", &obj, "-o", &png, "--eye", "1,2"]);
     assert!(stderr(&o).contains("x,y,z"), "{}", stderr(&o));
     let bad = write(&tmp("bad.kdt"), b"not a tree");

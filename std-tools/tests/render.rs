@@ -45,7 +45,12 @@ fn check_tree_matches_brute(tris: &[Triangle], camera: Camera, w: u32, h: u32) -
     let params = RenderParams::new(camera, w, h, &bounds(tris));
     let brute = render(&BruteTracer(tris), &params, &|| ());
     assert_eq!((brute.width, brute.height), (w, h));
-    for width in [PacketWidth::One, PacketWidth::Four, PacketWidth::Eight] {
+    for width in [
+        PacketWidth::One,
+        PacketWidth::Four,
+        PacketWidth::Eight,
+        PacketWidth::Sixteen,
+    ] {
         let img = render(&TreeTracer { tree: &tree, width }, &params, &|| ());
         let silhouette =
             |i: &Image| -> Vec<bool> { i.pixels.iter().map(|&p| p != BACKGROUND).collect() };

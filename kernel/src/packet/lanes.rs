@@ -13,7 +13,7 @@
 use crate::ray::Ray;
 use crate::traverse::Span;
 use core::ops::{BitAnd, BitOr, Div, Mul};
-use wide::{f32x4, f32x8, i32x4, i32x8};
+use wide::{f32x16, f32x4, f32x8, i32x16, i32x4, i32x8};
 
 /// A vector of `N` `f32` lanes.
 pub(crate) trait Lanes<const N: usize>:
@@ -197,8 +197,28 @@ fn records8(cols: [f32x8; 4]) -> [[f32; 4]; 8] {
     bytemuck::cast([half(0), half(1)])
 }
 
+/// [`Lanes::columns`] for 16 lanes: two 8x8 transposes, joined.
+#[inline(always)]
+fn columns16(rays: &[Ray]) -> [f32x16; 8] {
+    let (lo, hi) = rays.split_at(rays.len().min(8));
+    let (a, b) = (columns8(lo), columns8(hi));
+    core::array::from_fn(|c| {
+        let halves: [f32; 16] = bytemuck::cast([a[c].to_array(), b[c].to_array()]);
+        f32x16::new(halves)
+    })
+}
+
+/// [`Lanes::records`] for 16 lanes: [`records8`] of the two halves.
+#[inline(always)]
+fn records16(cols: [f32x16; 4]) -> [[f32; 4]; 16] {
+    let halves: [[[f32; 8]; 2]; 4] = cols.map(|c| bytemuck::cast(c.to_array()));
+    let half = |h: usize| records8(halves.map(|c| f32x8::new(c[h])));
+    bytemuck::cast([half(0), half(1)])
+}
+
 impl_lanes!(f32x4, i32x4, 4, columns4, records4);
 impl_lanes!(f32x8, i32x8, 8, columns8, records8);
+impl_lanes!(f32x16, i32x16, 16, columns16, records16);
 
 #[cfg(test)]
 mod tests {

@@ -125,19 +125,26 @@ fn lanes_equal_single_rays_bitwise() {
         let tree = TriangleTree::from_parts(&nodes, &prims, &tris, BOUNDS).unwrap();
         for i in 0..400 {
             let adversarial = i % 2 == 1;
+            let mut p16 = Packet16::EMPTY;
             let mut p8 = Packet8::EMPTY;
             let mut p4 = Packet4::EMPTY;
-            for l in 0..8 {
+            for l in 0..16 {
                 let ray = random_ray(&mut rng, adversarial);
                 // Some lanes stay inactive (with a ray that would hit).
                 if !adversarial || rng.f() < 0.8 {
+                    p16.set_ray(l, &ray);
                     p8.set_ray(l, &ray);
                     p4.set_ray(l % 4, &ray);
                 } else {
-                    p8.origin[0][l] = 0.25;
-                    p8.dir[2][l] = -1.0;
+                    p16.origin[0][l] = 0.25;
+                    p16.dir[2][l] = -1.0;
+                    if l < 8 {
+                        p8.origin[0][l] = 0.25;
+                        p8.dir[2][l] = -1.0;
+                    }
                 }
             }
+            check_packet(&tree, &p16, tree.closest_hit16(&p16), tree.any_hit16(&p16));
             let h8 = tree.closest_hit8(&p8);
             hits += h8.iter().filter(|h| h.is_hit()).count();
             check_packet(&tree, &p8, h8, tree.any_hit8(&p8));
@@ -162,6 +169,13 @@ fn coherent_packets_with_shared_signs() {
             });
             let p = Packet8::from_vec3([eye; 8], dirs, 0.0, f32::INFINITY);
             check_packet(&tree, &p, tree.closest_hit8(&p), tree.any_hit8(&p));
+            // Two such tiles side by side in 16 lanes.
+            let dirs16 = core::array::from_fn(|l| {
+                let (x, y) = (tx * 4 + l % 4 + 64 * (l / 8), ty * 2 + l / 4 % 2);
+                Vec3::new(x as f32 / 128.0 - 0.5, y as f32 / 64.0 - 0.5, -1.0)
+            });
+            let p = Packet16::from_vec3([eye; 16], dirs16, 0.0, f32::INFINITY);
+            check_packet(&tree, &p, tree.closest_hit16(&p), tree.any_hit16(&p));
         }
     }
 }
@@ -172,7 +186,12 @@ fn slices_trace_every_ray_and_stop_at_the_shorter() {
     let (nodes, prims, tris) = scene(&mut rng);
     let tree = TriangleTree::from_parts(&nodes, &prims, &tris, BOUNDS).unwrap();
     let rays: [Ray; 21] = core::array::from_fn(|_| random_ray(&mut rng, false));
-    for width in [PacketWidth::One, PacketWidth::Four, PacketWidth::Eight] {
+    for width in [
+        PacketWidth::One,
+        PacketWidth::Four,
+        PacketWidth::Eight,
+        PacketWidth::Sixteen,
+    ] {
         let mut hits = [Hit::OCCLUDED; 22];
         tree.closest_hits_with(width, &rays, &mut hits);
         let mut occ = [true; 20];

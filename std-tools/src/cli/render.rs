@@ -42,7 +42,8 @@ pub(crate) struct Args {
     /// tested, single rays) instead of the shaded picture.
     #[arg(long)]
     heatmap: bool,
-    /// Rays per packet: 1, 4 (2x2 pixel tiles) or 8 (4x2 tiles).
+    /// Rays per packet: 1, 4 (2x2 pixel tiles), 8 (4x2 tiles) or 16 (4x4
+    /// tiles).
     #[arg(long, default_value = "8", value_parser = parse_width)]
     packet: PacketWidth,
     /// Worker threads (default: all cores).

@@ -25,9 +25,10 @@ pub(crate) struct Args {
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
-    /// Rays traced together: 1 (single rays), 4 or 8 (packets of that
+    /// Rays traced together: 1 (single rays), 4, 8 or 16 (packets of that
     /// many consecutive rays: order the file in 2x2 / 4x2 pixel tiles, e.g.
-    /// `primary_tiled.rays`). The hits are the same bit for bit.
+    /// `primary_tiled.rays`; 16 takes two 4x2 tiles side by side). The hits
+    /// are the same bit for bit.
     #[arg(long, default_value = "1", value_parser = parse_width)]
     packet: PacketWidth,
     /// Print one JSON object instead of the summary.
@@ -114,10 +115,10 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     Ok(())
 }
 
-/// `--packet` (of `trace` and `render`): 1, 4 or 8.
+/// `--packet` (of `trace` and `render`): 1, 4, 8 or 16.
 pub(super) fn parse_width(s: &str) -> Result<PacketWidth, String> {
     s.parse()
         .ok()
         .and_then(PacketWidth::from_lanes)
-        .ok_or_else(|| format!("{s:?} is not a packet width: use 1, 4 or 8"))
+        .ok_or_else(|| format!("{s:?} is not a packet width: use 1, 4, 8 or 16"))
 }

@@ -64,14 +64,15 @@ const IN_SHADOW: f32 = 0.35;
 /// The surface colour (linear RGB).
 const ALBEDO: [f32; 3] = [0.95, 0.82, 0.62];
 
-/// Tile width and height in pixels for a packet width: 4x2 for 8 lanes,
-/// 2x2 for 4, single pixels for 1.
+/// Tile width and height in pixels for a packet width: 4x4 for 16
+/// lanes, 4x2 for 8, 2x2 for 4, single pixels for 1.
 #[must_use]
 pub const fn tile_size(width: PacketWidth) -> (u32, u32) {
     match width {
         PacketWidth::One => (1, 1),
         PacketWidth::Four => (2, 2),
         PacketWidth::Eight => (4, 2),
+        PacketWidth::Sixteen => (4, 4),
     }
 }
 

@@ -66,14 +66,20 @@ impl CostModel {
     #[inline]
     #[must_use]
     pub fn split(&self, p_below: f64, n_below: usize, p_above: f64, n_above: usize) -> f64 {
-        let empty = n_below == 0 || n_above == 0;
-        self.interior(
-            p_below,
-            self.leaf(n_below),
-            p_above,
-            self.leaf(n_above),
-            empty,
-        )
+        self.split_counts(p_below, n_below as f64, p_above, n_above as f64)
+    }
+
+    /// [`CostModel::split`] with the counts as `f64`, without branches,
+    /// for loops that price many planes at once.
+    #[inline]
+    #[must_use]
+    pub(super) fn split_counts(&self, p_below: f64, n_below: f64, p_above: f64, n_above: f64) -> f64 {
+        let empty = n_below == 0.0 || n_above == 0.0;
+        let lambda = if empty { self.empty_factor } else { 1.0 };
+        lambda
+            * (self.traversal
+                + p_below * (self.intersection * n_below)
+                + p_above * (self.intersection * n_above))
     }
 }
 

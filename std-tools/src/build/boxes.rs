@@ -101,51 +101,80 @@ pub(super) fn prims(items: Vec<Item>) -> Vec<u32> {
     items.into_iter().map(|i| i.tri).collect()
 }
 
+/// Which sides of the plane of `c` an item goes to (module docs): (below,
+/// above); a straddler goes to both.
+#[inline]
+fn sides(it: &Item, c: &Choice) -> (bool, bool) {
+    let (lo, hi, p) = (it.b.min[c.axis], it.b.max[c.axis], c.pos);
+    let planar = lo == p && hi == p;
+    (
+        lo < p || (planar && c.planar_below),
+        hi > p || (planar && !c.planar_below),
+    )
+}
+
 /// The items of the cells below and above the plane of `c` (module docs),
 /// in the order of `set`; `cut` gives a straddling item's boxes in the
-/// child cells (`None`: it misses that child). Large cells are split in
-/// parallel chunks, joined in order: the same result for any thread count.
+/// child cells (`None`: it misses that child). When every item goes to one
+/// side (a plane cutting off empty space), that side takes `set` as it is.
+/// Large cells are split in parallel chunks, joined in order: the same
+/// result for any thread count.
 pub(super) fn partition<F>(set: Vec<Item>, c: &Choice, cut: F) -> (Vec<Item>, Vec<Item>)
 where
     F: Fn(&Item) -> (Option<Aabb>, Option<Aabb>) + Sync,
 {
-    let (a, p) = (c.axis, c.pos);
-    let split = |chunk: &[Item]| {
-        // Room for every triangle on each side; the spare is given back.
-        let mut below = Vec::with_capacity(chunk.len());
-        let mut above = Vec::with_capacity(chunk.len());
+    let count = |chunk: &[Item]| {
+        chunk.iter().fold((0usize, 0usize), |(b, a), it| {
+            let (gb, ga) = sides(it, c);
+            (b + usize::from(gb), a + usize::from(ga))
+        })
+    };
+    let (nb, na) = if set.len() >= PARALLEL_MIN {
+        set.par_chunks(PARALLEL_MIN)
+            .map(count)
+            .reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1))
+    } else {
+        count(&set)
+    };
+    if na == 0 {
+        return (set, Vec::new());
+    }
+    if nb == 0 {
+        return (Vec::new(), set);
+    }
+    // Sized for every item counted on each side (a clipped straddler may
+    // still miss a child): no growing, no shrinking.
+    let split = |chunk: &[Item], below: &mut Vec<Item>, above: &mut Vec<Item>| {
         for it in chunk {
-            let (lo, hi) = (it.b.min[a], it.b.max[a]);
-            if lo == p && hi == p {
-                if c.planar_below {
-                    below.push(*it);
-                } else {
-                    above.push(*it);
+            match sides(it, c) {
+                (true, true) => {
+                    let (b, t) = cut(it);
+                    below.extend(b.map(|b| Item { tri: it.tri, b }));
+                    above.extend(t.map(|b| Item { tri: it.tri, b }));
                 }
-            } else if hi <= p {
-                below.push(*it);
-            } else if lo >= p {
-                above.push(*it);
-            } else {
-                let (b, t) = cut(it);
-                below.extend(b.map(|b| Item { tri: it.tri, b }));
-                above.extend(t.map(|b| Item { tri: it.tri, b }));
+                (true, false) => below.push(*it),
+                _ => above.push(*it),
             }
         }
-        (below, above)
     };
-    let (mut below, mut above) = if set.len() >= PARALLEL_MIN {
-        let parts: Vec<_> = set.par_chunks(PARALLEL_MIN).map(split).collect();
-        let (mut below, mut above) = (Vec::new(), Vec::new());
+    let mut below = Vec::with_capacity(nb);
+    let mut above = Vec::with_capacity(na);
+    if set.len() >= PARALLEL_MIN {
+        let parts: Vec<_> = set
+            .par_chunks(PARALLEL_MIN)
+            .map(|chunk| {
+                let (b, a) = count(chunk);
+                let (mut b, mut a) = (Vec::with_capacity(b), Vec::with_capacity(a));
+                split(chunk, &mut b, &mut a);
+                (b, a)
+            })
+            .collect();
         for (b, a) in parts {
             below.extend_from_slice(&b);
             above.extend_from_slice(&a);
         }
-        (below, above)
     } else {
-        split(&set)
-    };
-    below.shrink_to_fit();
-    above.shrink_to_fit();
+        split(&set, &mut below, &mut above);
+    }
     (below, above)
 }

@@ -67,7 +67,7 @@ pub struct BuildParams {
     /// leaves. Default 2^-20: far below any useful cell, well above the
     /// scale where planes run out of distinct `f32` positions.
     pub min_cell_fraction: f32,
-    /// Bins per axis of the binned builder. Default 32.
+    /// Bins per axis of the binned builder (at most 256). Default 32.
     pub bins: usize,
     /// Leaf size of the median and middle baselines. Default 2.
     pub baseline_leaf_size: usize,

@@ -9,7 +9,7 @@
 //! a box lying in the plane goes to the side the rule chose.
 
 use super::aabb::Aabb;
-use super::clip::{cut_box, split_boxes, PERFECT_MIN};
+use super::clip::{cut_box, cut_triangle, split_boxes};
 use super::cost::CostModel;
 use super::subdivide::{Choice, Splitter, PARALLEL_MIN};
 use super::{binned, median};
@@ -36,14 +36,27 @@ pub(super) enum Rule {
     Middle(usize),
 }
 
+/// How a box builder bounds the parts of a triangle straddling the plane,
+/// by the size of the cell: the larger the cell, the more a tight box
+/// saves below it.
+#[derive(Clone, Copy)]
+pub(super) struct Straddlers<'a> {
+    /// The triangles.
+    pub(super) triangles: &'a [Triangle],
+    /// Cells of at least this many triangles clip straddlers exactly to
+    /// each child's cell ([`split_boxes`], perfect splits).
+    pub(super) clip_min: usize,
+    /// Smaller cells of at least this many cut the triangle by the plane
+    /// ([`cut_triangle`]); smaller ones still cut its box ([`cut_box`]).
+    pub(super) cut_min: usize,
+}
+
 /// The box splitter.
 pub(super) struct BoxSplitter<'a> {
     pub(super) rule: Rule,
     pub(super) cost: CostModel,
-    /// The triangles, for perfect splits (straddlers clipped to each
-    /// child's cell, in cells of at least [`PERFECT_MIN`] triangles);
-    /// `None`: their boxes are cut by the plane.
-    pub(super) perfect: Option<&'a [Triangle]>,
+    /// `None`: every straddler's box is cut by the plane.
+    pub(super) straddlers: Option<Straddlers<'a>>,
 }
 
 impl BoxSplitter<'_> {
@@ -81,12 +94,17 @@ impl Splitter for BoxSplitter<'_> {
     }
 
     fn partition(&self, set: Vec<Item>, cell: &Aabb, c: &Choice) -> (Vec<Item>, Vec<Item>) {
-        if let Some(tris) = self.perfect.filter(|_| set.len() >= PERFECT_MIN) {
-            return partition(set, c, |it| {
-                split_boxes(&tris[it.tri as usize], cell, c.axis, c.pos)
-            });
+        let n = set.len();
+        let (a, p) = (c.axis, c.pos);
+        match self.straddlers {
+            Some(s) if n >= s.clip_min => partition(set, c, |it| {
+                split_boxes(&s.triangles[it.tri as usize], cell, a, p)
+            }),
+            Some(s) if n >= s.cut_min => partition(set, c, |it| {
+                cut_triangle(&s.triangles[it.tri as usize], &it.b, cell, a, p)
+            }),
+            _ => partition(set, c, |it| cut_box(&it.b, cell, a, p)),
         }
-        partition(set, c, |it| cut_box(&it.b, cell, c.axis, c.pos))
     }
 }
 
@@ -115,11 +133,13 @@ fn sides(it: &Item, c: &Choice) -> (bool, bool) {
 
 /// The items of the cells below and above the plane of `c` (module docs),
 /// in the order of `set`; `cut` gives a straddling item's boxes in the
-/// child cells (`None`: it misses that child). When every item goes to one
-/// side (a plane cutting off empty space), that side takes `set` as it is.
-/// Large cells are split in parallel chunks, joined in order: the same
-/// result for any thread count.
-pub(super) fn partition<F>(set: Vec<Item>, c: &Choice, cut: F) -> (Vec<Item>, Vec<Item>)
+/// child cells (`None`: it misses that child). The cell below keeps the
+/// storage of `set` (its items are moved forward in place), the cell above
+/// gets an exactly sized list; when every item goes to one side (a plane
+/// cutting off empty space), that side takes `set` as it is. Large cells
+/// are split in parallel chunks, joined in order: the same result for any
+/// thread count.
+pub(super) fn partition<F>(mut set: Vec<Item>, c: &Choice, cut: F) -> (Vec<Item>, Vec<Item>)
 where
     F: Fn(&Item) -> (Option<Aabb>, Option<Aabb>) + Sync,
 {
@@ -142,39 +162,54 @@ where
     if nb == 0 {
         return (Vec::new(), set);
     }
-    // Sized for every item counted on each side (a clipped straddler may
-    // still miss a child): no growing, no shrinking.
-    let split = |chunk: &[Item], below: &mut Vec<Item>, above: &mut Vec<Item>| {
-        for it in chunk {
-            match sides(it, c) {
+    // Moves `chunk`'s items below to its front (an item yields at most one
+    // item below, so writes never overtake reads) and pushes those above;
+    // returns how many stay below.
+    let split = |chunk: &mut [Item], above: &mut Vec<Item>| {
+        let mut kept = 0;
+        for i in 0..chunk.len() {
+            let it = chunk[i];
+            match sides(&it, c) {
                 (true, true) => {
-                    let (b, t) = cut(it);
-                    below.extend(b.map(|b| Item { tri: it.tri, b }));
+                    let (b, t) = cut(&it);
+                    if let Some(b) = b {
+                        chunk[kept] = Item { tri: it.tri, b };
+                        kept += 1;
+                    }
                     above.extend(t.map(|b| Item { tri: it.tri, b }));
                 }
-                (true, false) => below.push(*it),
-                _ => above.push(*it),
+                (true, false) => {
+                    chunk[kept] = it;
+                    kept += 1;
+                }
+                _ => above.push(it),
             }
         }
+        kept
     };
-    let mut below = Vec::with_capacity(nb);
-    let mut above = Vec::with_capacity(na);
+    // Sized for every item counted above (a clipped straddler may still
+    // miss it): no growing.
+    let mut above = Vec::with_capacity(na.next_power_of_two());
     if set.len() >= PARALLEL_MIN {
-        let parts: Vec<_> = set
-            .par_chunks(PARALLEL_MIN)
+        let parts: Vec<(usize, Vec<Item>)> = set
+            .par_chunks_mut(PARALLEL_MIN)
             .map(|chunk| {
-                let (b, a) = count(chunk);
-                let (mut b, mut a) = (Vec::with_capacity(b), Vec::with_capacity(a));
-                split(chunk, &mut b, &mut a);
-                (b, a)
+                let mut above = Vec::with_capacity(count(chunk).1);
+                let kept = split(chunk, &mut above);
+                (kept, above)
             })
             .collect();
-        for (b, a) in parts {
-            below.extend_from_slice(&b);
+        let mut below = 0;
+        for (k, (kept, a)) in parts.into_iter().enumerate() {
+            let from = k * PARALLEL_MIN;
+            set.copy_within(from..from + kept, below);
+            below += kept;
             above.extend_from_slice(&a);
         }
+        set.truncate(below);
     } else {
-        split(&set, &mut below, &mut above);
+        let kept = split(&mut set, &mut above);
+        set.truncate(kept);
     }
-    (below, above)
+    (set, above)
 }

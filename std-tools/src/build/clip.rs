@@ -129,6 +129,66 @@ pub(super) fn split_boxes(
     )
 }
 
+/// The boxes of the parts of `tri` in the two cells made by splitting
+/// `cell` at `pos` on `axis` (below, above), cheaply: the box of the part
+/// of the whole triangle on each side of the plane (its vertices there and
+/// where its edges cross the plane), intersected with `b`, the triangle's
+/// box in `cell`, and with the child cell. Looser than [`split_boxes`]
+/// (the triangle is not clipped to the cell first), as conservative: each
+/// holds every point of the triangle in its closed cell (`b` holds those
+/// in `cell`), rounded outward like the clip; `None` for an empty box.
+#[must_use]
+pub(super) fn cut_triangle(
+    tri: &Triangle,
+    b: &Aabb,
+    cell: &Aabb,
+    axis: usize,
+    pos: f32,
+) -> (Option<Aabb>, Option<Aabb>) {
+    let eps = margin(tri, cell);
+    let plane = f64::from(pos);
+    let v = tri.v.map(|p| p.map(f64::from));
+    let mut sides = [
+        ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
+        ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
+    ];
+    let mut add = |side: usize, p: &[f64; 3]| {
+        let (lo, hi) = &mut sides[side];
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    };
+    for i in 0..3 {
+        let (a, c) = (&v[i], &v[(i + 1) % 3]);
+        if a[axis] <= plane {
+            add(0, a);
+        }
+        if a[axis] >= plane {
+            add(1, a);
+        }
+        if (a[axis] < plane && c[axis] > plane) || (a[axis] > plane && c[axis] < plane) {
+            // The edge crosses the plane: the crossing point, on the plane
+            // exactly, belongs to both sides.
+            let t = (plane - a[axis]) / (c[axis] - a[axis]);
+            let mut p: [f64; 3] = std::array::from_fn(|k| a[k] + t * (c[k] - a[k]));
+            p[axis] = plane;
+            add(0, &p);
+            add(1, &p);
+        }
+    }
+    let (below, above) = cell.split(axis, pos);
+    let boxed = |(lo, hi): ([f64; 3], [f64; 3]), child: &Aabb| {
+        let grown = Aabb {
+            min: lo.map(|x| round_down(x - eps)),
+            max: hi.map(|x| round_up(x + eps)),
+        };
+        let r = grown.intersect(b).intersect(child);
+        (0..3).all(|k| r.min[k] <= r.max[k]).then_some(r)
+    };
+    (boxed(sides[0], &below), boxed(sides[1], &above))
+}
+
 /// The box `b` (within `cell`) cut by the plane at `pos` on `axis`:
 /// (below, above), both kept.
 #[must_use]

@@ -125,7 +125,12 @@ pub(super) struct AreaRatios {
 impl AreaRatios {
     /// For planes along `axis` of `cell`; `None` when the cell has no area.
     pub(super) fn new(cell: &Aabb, axis: usize) -> Option<AreaRatios> {
-        let area = cell.area();
+        Self::with_area(cell, axis, cell.area())
+    }
+
+    /// [`AreaRatios::new`] given the cell's area (computed once for the
+    /// three axes).
+    pub(super) fn with_area(cell: &Aabb, axis: usize, area: f64) -> Option<AreaRatios> {
         if area <= 0.0 {
             return None;
         }

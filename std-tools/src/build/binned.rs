@@ -106,15 +106,16 @@ pub(super) fn choose(items: &[Item], cell: &Aabb, bins: usize, cost: &CostModel)
     // the build, and the bunny's tree costs the same (32.8).
     let bins = bins.min(items.len() / 2 + 4).clamp(2, MAX_BINS);
     match bins {
-        0..=8 => choose_in::<8, 16>(items, cell, bins, cost),
-        9..=16 => choose_in::<16, 24>(items, cell, bins, cost),
-        17..=32 => choose_in::<32, 40>(items, cell, bins, cost),
+        0..=7 => choose_in::<8, 8>(items, cell, bins, cost),
+        8..=15 => choose_in::<16, 16>(items, cell, bins, cost),
+        16..=31 => choose_in::<32, 32>(items, cell, bins, cost),
+        32 => choose_in::<32, 40>(items, cell, bins, cost),
         _ => choose_in::<MAX_BINS, { MAX_BINS + 8 }>(items, cell, bins, cost),
     }
 }
 
-/// [`choose`] with at most `B` bins, `M` >= `B + 2` candidates per axis
-/// (a multiple of 8: whole vectors).
+/// [`choose`] with at most `B` bins, `M` > `bins` candidates per axis (a
+/// multiple of 8: whole vectors).
 fn choose_in<const B: usize, const M: usize>(
     items: &[Item],
     cell: &Aabb,

@@ -25,6 +25,14 @@ pub(super) struct Item {
     pub(super) b: Aabb,
 }
 
+impl Item {
+    /// A placeholder, overwritten before use.
+    const NONE: Item = Item {
+        tri: 0,
+        b: Aabb::EMPTY,
+    };
+}
+
 /// How a box builder picks its plane.
 #[derive(Clone, Copy, Debug)]
 pub(super) enum Rule {
@@ -114,9 +122,11 @@ pub(super) fn bytes(items: &Vec<Item>) -> usize {
 }
 
 /// A leaf's triangles: partitions keep the root's index order, so the
-/// items are already sorted.
+/// items are already sorted. Copied into a list of their own: collected in
+/// place, each leaf kept its items' storage (7 times the bytes; with
+/// partitions in place, its ancestors' too) until the tree was laid out.
 pub(super) fn prims(items: Vec<Item>) -> Vec<u32> {
-    items.into_iter().map(|i| i.tri).collect()
+    items.iter().map(|i| i.tri).collect()
 }
 
 /// Which sides of the plane of `c` an item goes to (module docs): (below,
@@ -163,10 +173,12 @@ where
         return (Vec::new(), set);
     }
     // Moves `chunk`'s items below to its front (an item yields at most one
-    // item below, so writes never overtake reads) and pushes those above;
-    // returns how many stay below.
-    let split = |chunk: &mut [Item], above: &mut Vec<Item>| {
-        let mut kept = 0;
+    // item below, so writes never overtake reads) and writes those above
+    // to `above`, which has a spare slot: an item on one side is written
+    // to both and kept where it goes, without a branch on the side.
+    // Returns how many there are below and above.
+    let split = |chunk: &mut [Item], above: &mut [Item]| {
+        let (mut kept, mut up) = (0, 0);
         for i in 0..chunk.len() {
             let it = chunk[i];
             match sides(&it, c) {
@@ -176,29 +188,34 @@ where
                         chunk[kept] = Item { tri: it.tri, b };
                         kept += 1;
                     }
-                    above.extend(t.map(|b| Item { tri: it.tri, b }));
+                    if let Some(b) = t {
+                        above[up] = Item { tri: it.tri, b };
+                        up += 1;
+                    }
                 }
-                (true, false) => {
+                (gb, ga) => {
                     chunk[kept] = it;
-                    kept += 1;
+                    above[up] = it;
+                    kept += usize::from(gb);
+                    up += usize::from(ga);
                 }
-                _ => above.push(it),
             }
         }
-        kept
+        (kept, up)
     };
-    // Sized for every item counted above (a clipped straddler may still
-    // miss it): no growing.
-    let mut above = Vec::with_capacity(na.next_power_of_two());
+    let room = |n: usize| vec![Item::NONE; n + 1];
+    let mut above;
     if set.len() >= PARALLEL_MIN {
         let parts: Vec<(usize, Vec<Item>)> = set
             .par_chunks_mut(PARALLEL_MIN)
             .map(|chunk| {
-                let mut above = Vec::with_capacity(count(chunk).1);
-                let kept = split(chunk, &mut above);
+                let mut above = room(count(chunk).1);
+                let (kept, up) = split(chunk, &mut above);
+                above.truncate(up);
                 (kept, above)
             })
             .collect();
+        above = Vec::with_capacity(na);
         let mut below = 0;
         for (k, (kept, a)) in parts.into_iter().enumerate() {
             let from = k * PARALLEL_MIN;
@@ -208,8 +225,10 @@ where
         }
         set.truncate(below);
     } else {
-        let kept = split(&mut set, &mut above);
+        above = room(na);
+        let (kept, up) = split(&mut set, &mut above);
         set.truncate(kept);
+        above.truncate(up);
     }
     (set, above)
 }

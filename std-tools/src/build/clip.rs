@@ -129,6 +129,11 @@ pub(super) fn split_boxes(
     )
 }
 
+/// The margin of [`cut_triangle`]'s crossing points, relative to the
+/// triangle's largest coordinate magnitude: 2^-18, 8 times the worst `f32`
+/// rounding of a crossing point (about 8 rounding errors of 2^-24 each).
+const CUT_MARGIN: f32 = 1.0 / 262_144.0;
+
 /// The boxes of the parts of `tri` in the two cells made by splitting
 /// `cell` at `pos` on `axis` (below, above), cheaply: the box of the part
 /// of the whole triangle on each side of the plane (its vertices there and
@@ -136,7 +141,10 @@ pub(super) fn split_boxes(
 /// box in `cell`, and with the child cell. Looser than [`split_boxes`]
 /// (the triangle is not clipped to the cell first), as conservative: each
 /// holds every point of the triangle in its closed cell (`b` holds those
-/// in `cell`), rounded outward like the clip; `None` for an empty box.
+/// in `cell`). It runs in `f32`: the crossing points are grown by
+/// [`CUT_MARGIN`] of the triangle's scale (vertices are exact); when a
+/// crossing overflows, the box `b` is cut instead ([`cut_box`]). `None`
+/// for an empty box.
 #[must_use]
 pub(super) fn cut_triangle(
     tri: &Triangle,
@@ -145,48 +153,51 @@ pub(super) fn cut_triangle(
     axis: usize,
     pos: f32,
 ) -> (Option<Aabb>, Option<Aabb>) {
-    let eps = margin(tri, cell);
-    let plane = f64::from(pos);
-    let v = tri.v.map(|p| p.map(f64::from));
-    let mut sides = [
-        ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
-        ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
-    ];
-    let mut add = |side: usize, p: &[f64; 3]| {
-        let (lo, hi) = &mut sides[side];
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    };
+    let scale = tri.v.iter().flatten().fold(0.0f32, |m, &c| m.max(c.abs()));
+    // At least the smallest normal float: below it the rounding error is
+    // absolute (2^-149 per operation), not relative.
+    let eps = (scale * CUT_MARGIN).max(f32::MIN_POSITIVE);
+    let mut lo = [[f32::INFINITY; 3]; 2];
+    let mut hi = [[f32::NEG_INFINITY; 3]; 2];
+    let mut finite = true;
     for i in 0..3 {
-        let (a, c) = (&v[i], &v[(i + 1) % 3]);
-        if a[axis] <= plane {
-            add(0, a);
+        let (a, c) = (tri.v[i], tri.v[(i + 1) % 3]);
+        for (side, on) in [(0, a[axis] <= pos), (1, a[axis] >= pos)] {
+            if on {
+                for k in 0..3 {
+                    lo[side][k] = lo[side][k].min(a[k]);
+                    hi[side][k] = hi[side][k].max(a[k]);
+                }
+            }
         }
-        if a[axis] >= plane {
-            add(1, a);
-        }
-        if (a[axis] < plane && c[axis] > plane) || (a[axis] > plane && c[axis] < plane) {
+        if (a[axis] < pos && c[axis] > pos) || (a[axis] > pos && c[axis] < pos) {
             // The edge crosses the plane: the crossing point, on the plane
-            // exactly, belongs to both sides.
-            let t = (plane - a[axis]) / (c[axis] - a[axis]);
-            let mut p: [f64; 3] = std::array::from_fn(|k| a[k] + t * (c[k] - a[k]));
-            p[axis] = plane;
-            add(0, &p);
-            add(1, &p);
+            // exactly, grown by the margin elsewhere, belongs to both sides.
+            let t = (pos - a[axis]) / (c[axis] - a[axis]);
+            for k in 0..3 {
+                let x = a[k] + t * (c[k] - a[k]);
+                finite &= x.is_finite();
+                let (l, h) = if k == axis { (pos, pos) } else { (x - eps, x + eps) };
+                for side in 0..2 {
+                    lo[side][k] = lo[side][k].min(l);
+                    hi[side][k] = hi[side][k].max(h);
+                }
+            }
         }
     }
+    if !finite {
+        return cut_box(b, cell, axis, pos);
+    }
     let (below, above) = cell.split(axis, pos);
-    let boxed = |(lo, hi): ([f64; 3], [f64; 3]), child: &Aabb| {
-        let grown = Aabb {
-            min: lo.map(|x| round_down(x - eps)),
-            max: hi.map(|x| round_up(x + eps)),
+    let boxed = |side: usize, child: &Aabb| {
+        let part = Aabb {
+            min: lo[side],
+            max: hi[side],
         };
-        let r = grown.intersect(b).intersect(child);
+        let r = part.intersect(b).intersect(child);
         (0..3).all(|k| r.min[k] <= r.max[k]).then_some(r)
     };
-    (boxed(sides[0], &below), boxed(sides[1], &above))
+    (boxed(0, &below), boxed(1, &above))
 }
 
 /// The box `b` (within `cell`) cut by the plane at `pos` on `axis`:

@@ -104,6 +104,12 @@ pub(super) fn choose(items: &[Item], cell: &Aabb, bins: usize, cost: &CostModel)
     // Small cells near the leaves get fewer bins (about half their
     // triangles): pricing 31 planes per axis for 6 triangles was most of
     // the build, and the bunny's tree costs the same (32.8).
+    // No split costs less than a traversal step (with the empty-cell
+    // bonus): a leaf this cheap is never split (one triangle, with the
+    // default costs), and the binned builder does not look ahead.
+    if cost.empty_factor.min(1.0) * cost.traversal >= cost.leaf(items.len()) {
+        return None;
+    }
     let bins = bins.min(items.len() / 2 + 4).clamp(2, MAX_BINS);
     match bins {
         0..=7 => choose_in::<8, 8>(items, cell, bins, cost),

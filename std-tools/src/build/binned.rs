@@ -17,14 +17,16 @@ use wide::f32x8;
 /// their straddlers exactly to each child's cell (perfect splits); smaller
 /// ones from [`CUT_MIN`] up cut the triangle by the plane only
 /// (`clip::cut_triangle`), smaller still cut its box. Bunny tree cost /
-/// build (one thread, no look-ahead): exact clipping from 16 up 29.37 /
-/// 110 ms; from 1024 and cutting triangles from 16, 29.68 / 102 ms;
-/// cutting triangles from 16, never clipping, 29.75 / 102 ms; only cutting
-/// boxes 32.85 / 93 ms (the SAH builder's tree: 29.07).
+/// build (one thread, no look-ahead, in-process): exact clipping from 16
+/// up 29.37 / 110 ms; from 1024 and cutting triangles from 16, 29.68 /
+/// 102 ms; only cutting boxes 32.85 / 93 ms (the SAH builder's tree:
+/// 29.07). With the cheaper cut, cutting from 16 / 24 / 32: 29.68 / 29.89
+/// / 30.03 at 83 / 80 / 76 ms (sponza 54.46 / 54.68 / 54.92, SAH 53.68,
+/// build -10% at 32; 8 cuts more and builds more nodes: 29.61, +5%).
 pub(super) const CLIP_MIN: usize = 1024;
 
 /// See [`CLIP_MIN`].
-pub(super) const CUT_MIN: usize = 16;
+pub(super) const CUT_MIN: usize = 32;
 
 /// The most bins per axis: the SAH builder's large cells use 256.
 pub(super) const MAX_BINS: usize = 256;

@@ -168,7 +168,10 @@ fn price<const B: usize, const M: usize>(
         *f = (j - 1) as f32 / bins as f32;
     }
     let area = cell.area();
-    let mut best: Option<Choice> = None;
+    // All three axes' prices, so one search finds the cheapest: the first
+    // of equal prices is the lowest axis, then the lowest lane.
+    let mut prices = [[f64::INFINITY; M]; 3];
+    let mut pos = [[0.0f32; M]; 3];
     for axis in 0..3 {
         let Some(ratios) = AreaRatios::with_area(cell, axis, area) else {
             continue;
@@ -185,49 +188,40 @@ fn price<const B: usize, const M: usize>(
             ne += ends[j - 1];
             (below[j + 1], ended[j + 1]) = (nb, ne);
         }
-        let mut pos = [lo; M];
-        for j in 2..M {
+        let pos = &mut pos[axis];
+        for j in 0..M {
             pos[j] = lo + (hi - lo) * fraction[j];
         }
         (pos[0], pos[1]) = (lo_box[axis], hi_box[axis]);
-        let mut prices = [f64::INFINITY; M];
         for j in 0..M {
             let (pb, pa) = ratios.at(pos[j]);
             let (nb, na) = (f64::from(below[j]), f64::from(n as u32 - ended[j]));
             let p = cost.split_counts(pb, nb, pa, na);
             let inside = pos[j] > lo && pos[j] < hi;
-            prices[j] = if inside { p } else { f64::INFINITY };
+            prices[axis][j] = if inside { p } else { f64::INFINITY };
         }
-        // The least price and its first lane, by compares over whole
-        // vectors (no NaN can occur: the cell has an area).
-        let mut least = [f64::INFINITY; 8];
-        for chunk in prices.chunks_exact(8) {
-            for (l, &p) in least.iter_mut().zip(chunk) {
-                *l = if p < *l { p } else { *l };
-            }
-        }
-        let least = least
-            .iter()
-            .fold(f64::INFINITY, |a, &b| if b < a { b } else { a });
-        if least == f64::INFINITY || best.is_some_and(|b| b.cost <= Some(least)) {
-            continue;
-        }
-        let mut at = 0u64;
-        for (j, &p) in prices.iter().enumerate() {
-            at |= u64::from(p == least) << (j % 64);
-        }
-        let j = if M <= 64 {
-            at.trailing_zeros() as usize
-        } else {
-            prices.iter().position(|&p| p == least).unwrap_or(0)
-        };
-        best = Some(Choice {
-            axis,
-            pos: pos[j],
-            // Planar boxes at the lowest start go above, the others below.
-            planar_below: j != 0,
-            cost: Some(least),
-        });
     }
-    best
+    // The least price by compares over whole vectors (no NaN can occur:
+    // the cell has an area), then its first lane.
+    let mut least = [f64::INFINITY; 8];
+    for chunk in prices.as_flattened().chunks_exact(8) {
+        for (l, &p) in least.iter_mut().zip(chunk) {
+            *l = if p < *l { p } else { *l };
+        }
+    }
+    let least = least
+        .iter()
+        .fold(f64::INFINITY, |a, &b| if b < a { b } else { a });
+    if least == f64::INFINITY {
+        return None;
+    }
+    let at = prices.as_flattened().iter().position(|&p| p == least)?;
+    let (axis, j) = (at / M, at % M);
+    Some(Choice {
+        axis,
+        pos: pos[axis][j],
+        // Planar boxes at the lowest start go above, the others below.
+        planar_below: j != 0,
+        cost: Some(least),
+    })
 }

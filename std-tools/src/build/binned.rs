@@ -72,8 +72,9 @@ impl<const B: usize> Tally<B> {
                 // `b < bins <= B`: the mask only spares a bounds check.
                 row[b as usize % B] += 1;
             }
-            lo = lo.min(edge);
-            hi = hi.max(edge);
+            // Box edges are finite: no NaN to take care of.
+            lo = lo.fast_min(edge);
+            hi = hi.fast_max(edge);
         }
         let (lo, hi) = (lo.to_array(), hi.to_array());
         for a in 0..3 {

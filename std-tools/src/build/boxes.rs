@@ -138,10 +138,12 @@ pub(super) fn prims(items: Vec<Item>) -> Vec<u32> {
 #[inline]
 fn sides(it: &Item, c: &Choice) -> (bool, bool) {
     let (lo, hi, p) = (it.b.min[c.axis], it.b.max[c.axis], c.pos);
-    let planar = lo == p && hi == p;
+    // `&` and `|`, not `&&` and `||`: no branches (which side an item
+    // goes to is unpredictable).
+    let planar = (lo == p) & (hi == p);
     (
-        lo < p || (planar && c.planar_below),
-        hi > p || (planar && !c.planar_below),
+        (lo < p) | (planar & c.planar_below),
+        (hi > p) | (planar & !c.planar_below),
     )
 }
 

@@ -162,11 +162,16 @@ pub(super) fn cut_triangle(
     let mut finite = true;
     for i in 0..3 {
         let (a, c) = (tri.v[i], tri.v[(i + 1) % 3]);
+        // Compares, not `min` / `max`: no NaN handling (a NaN can only
+        // come from an overflowing crossing, which `finite` catches).
+        let mut add = |side: usize, l: f32, h: f32, k: usize| {
+            lo[side][k] = if l < lo[side][k] { l } else { lo[side][k] };
+            hi[side][k] = if h > hi[side][k] { h } else { hi[side][k] };
+        };
         for (side, on) in [(0, a[axis] <= pos), (1, a[axis] >= pos)] {
             if on {
                 for k in 0..3 {
-                    lo[side][k] = lo[side][k].min(a[k]);
-                    hi[side][k] = hi[side][k].max(a[k]);
+                    add(side, a[k], a[k], k);
                 }
             }
         }
@@ -178,10 +183,8 @@ pub(super) fn cut_triangle(
                 let x = a[k] + t * (c[k] - a[k]);
                 finite &= x.is_finite();
                 let (l, h) = if k == axis { (pos, pos) } else { (x - eps, x + eps) };
-                for side in 0..2 {
-                    lo[side][k] = lo[side][k].min(l);
-                    hi[side][k] = hi[side][k].max(h);
-                }
+                add(0, l, h, k);
+                add(1, l, h, k);
             }
         }
     }

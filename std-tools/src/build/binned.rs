@@ -85,7 +85,7 @@ impl<const B: usize> Tally<B> {
 
     /// Adds `o` (integer sums and extremes: the same whichever way the
     /// chunks are scheduled).
-    fn add(mut self: Box<Self>, o: Box<Self>) -> Box<Self> {
+    fn add(mut self: Box<Self>, o: &Self) -> Box<Self> {
         for (r, s) in self.counts.iter_mut().zip(&o.counts) {
             for (u, v) in r.iter_mut().zip(s) {
                 *u += v;
@@ -139,7 +139,7 @@ fn choose_in<const B: usize, const M: usize>(
                 t.count(chunk, cell, bins);
                 t
             })
-            .reduce_with(Tally::add)?;
+            .reduce_with(|t, o| t.add(&o))?;
         return price::<B, M>(&t, items.len(), cell, bins, cost);
     }
     let mut t = Tally::<B>::EMPTY;

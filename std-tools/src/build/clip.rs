@@ -170,8 +170,8 @@ pub(super) fn cut_triangle(
         };
         for (side, on) in [(0, a[axis] <= pos), (1, a[axis] >= pos)] {
             if on {
-                for k in 0..3 {
-                    add(side, a[k], a[k], k);
+                for (k, &x) in a.iter().enumerate() {
+                    add(side, x, x, k);
                 }
             }
         }
@@ -182,7 +182,11 @@ pub(super) fn cut_triangle(
             for k in 0..3 {
                 let x = a[k] + t * (c[k] - a[k]);
                 finite &= x.is_finite();
-                let (l, h) = if k == axis { (pos, pos) } else { (x - eps, x + eps) };
+                let (l, h) = if k == axis {
+                    (pos, pos)
+                } else {
+                    (x - eps, x + eps)
+                };
                 add(0, l, h, k);
                 add(1, l, h, k);
             }

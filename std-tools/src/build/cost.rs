@@ -73,7 +73,13 @@ impl CostModel {
     /// for loops that price many planes at once.
     #[inline]
     #[must_use]
-    pub(super) fn split_counts(&self, p_below: f64, n_below: f64, p_above: f64, n_above: f64) -> f64 {
+    pub(super) fn split_counts(
+        &self,
+        p_below: f64,
+        n_below: f64,
+        p_above: f64,
+        n_above: f64,
+    ) -> f64 {
         let empty = n_below == 0.0 || n_above == 0.0;
         let lambda = if empty { self.empty_factor } else { 1.0 };
         lambda

@@ -358,4 +358,61 @@ mod tests {
             }
         }
     }
+
+    #[test]
+    fn cut_triangle_boxes_hold_every_point_in_their_cell() {
+        let mut s = 11u64;
+        let mut r = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((s >> 40) as f32) / (1u64 << 24) as f32 * 2.0 - 1.0
+        };
+        let mut cut = 0;
+        for _ in 0..3000 {
+            let t = tri(std::array::from_fn(|_| std::array::from_fn(|_| r() * 1e3)));
+            let c = cell([r() * 600.0, r() * 600.0, r() * 600.0], [700.0; 3]);
+            let Some(b) = clipped_box(&t, &c) else {
+                continue;
+            };
+            let axis = (r().abs() * 3.0) as usize % 3;
+            let pos = b.min[axis] + (b.max[axis] - b.min[axis]) * r().abs();
+            if !(pos > c.min[axis] && pos < c.max[axis]) {
+                continue;
+            }
+            cut += 1;
+            let halves = c.split(axis, pos);
+            let (below, above) = cut_triangle(&t, &b, &c, axis, pos);
+            for (got, child) in [(below, halves.0), (above, halves.1)] {
+                if let Some(g) = got {
+                    assert!((0..3).all(|a| g.min[a] >= child.min[a] && g.max[a] <= child.max[a]));
+                }
+                for i in 0..=24 {
+                    for j in 0..=(24 - i) {
+                        let (u, v) = (i as f32 / 24.0, j as f32 / 24.0);
+                        let p: [f32; 3] = std::array::from_fn(|a| {
+                            t.v[0][a] + u * (t.v[1][a] - t.v[0][a]) + v * (t.v[2][a] - t.v[0][a])
+                        });
+                        if (0..3).all(|a| p[a] >= child.min[a] && p[a] <= child.max[a]) {
+                            let g = got.expect("a point inside: kept");
+                            let slack = |a: usize| 1e-3 * (1.0 + p[a].abs());
+                            assert!((0..3).all(
+                                |a| p[a] >= g.min[a] - slack(a) && p[a] <= g.max[a] + slack(a)
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+        assert!(cut > 1000, "{cut}");
+    }
+
+    #[test]
+    fn cut_triangle_overflowing_crossing_cuts_the_box() {
+        // Edges spanning -3e38..3e38 overflow `c - a`: the box is cut.
+        let t = tri([[-3e38, -3e38, 0.0], [3e38, 3e38, 1.0], [3e38, -3e38, 0.0]]);
+        let c = cell([-3e38; 3], [3e38; 3]);
+        let b = Aabb::of_triangle(&t).intersect(&c);
+        assert_eq!(cut_triangle(&t, &b, &c, 1, 0.0), cut_box(&b, &c, 1, 0.0));
+    }
 }

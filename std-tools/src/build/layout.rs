@@ -46,6 +46,21 @@ impl BuildNode {
     }
 }
 
+/// Frees the tree under `node`, its two halves in parallel down to
+/// `depth` levels (the nodes are boxes freed one by one: 100 ms for the
+/// 2.3M nodes of the 1M-triangle bunny on one thread).
+pub(super) fn drop_in_parallel(node: BuildNode, depth: u32) {
+    match node {
+        BuildNode::Interior { below, above, .. } if depth > 0 => {
+            rayon::join(
+                || drop_in_parallel(*below, depth - 1),
+                || drop_in_parallel(*above, depth - 1),
+            );
+        }
+        leaf_or_deep => drop(leaf_or_deep),
+    }
+}
+
 /// Lays `root` out for the kernel. Node fields cannot overflow: the caller
 /// checked the triangle count, and a tree over n < 2^30 primitives with
 /// depth <= 64 that the builders make has far fewer than 2^30 nodes... or

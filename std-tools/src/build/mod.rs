@@ -303,5 +303,8 @@ fn build_in_pool(
             subdivide::subdivide(&s, set, bounds, &limits, monitor)
         }
     };
-    flatten(&root, bounds.to_bounds())
+    let built = flatten(&root, bounds.to_bounds());
+    // Subtrees of a few thousand nodes per task.
+    layout::drop_in_parallel(root, 8);
+    built
 }

@@ -11,7 +11,8 @@ use super::BuiltTree;
 pub enum BuildNode {
     /// A leaf and its primitives (sorted, no duplicates).
     Leaf(Vec<u32>),
-    /// A split plane and the two cells it makes.
+    /// A split plane and the two cells it makes (made by
+    /// [`BuildNode::interior`], which sizes the subtree).
     Interior {
         /// The split axis.
         axis: Axis,
@@ -21,10 +22,51 @@ pub enum BuildNode {
         below: Box<BuildNode>,
         /// The cell above the plane (`>= split`).
         above: Box<BuildNode>,
+        /// The subtree's size in the kernel's layout.
+        size: Size,
     },
 }
 
+/// A subtree's size in the kernel's layout: where its parts go is known
+/// before they are laid out, so both halves of a tree are laid out at once.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct Size {
+    /// Interior nodes, this one included.
+    interiors: usize,
+    /// Primitive indices listed by its leaves (a leaf of one primitive
+    /// holds it in the node).
+    listed: usize,
+}
+
 impl BuildNode {
+    /// The interior node splitting its cell at `split` on `axis`.
+    #[must_use]
+    pub fn interior(axis: Axis, split: f32, below: BuildNode, above: BuildNode) -> BuildNode {
+        let (b, a) = (below.size(), above.size());
+        BuildNode::Interior {
+            axis,
+            split,
+            below: Box::new(below),
+            above: Box::new(above),
+            size: Size {
+                interiors: 1 + b.interiors + a.interiors,
+                listed: b.listed + a.listed,
+            },
+        }
+    }
+
+    /// The subtree's size in the kernel's layout.
+    fn size(&self) -> Size {
+        match self {
+            BuildNode::Leaf(p) if p.len() < 2 => Size::default(),
+            BuildNode::Leaf(p) => Size {
+                interiors: 0,
+                listed: p.len(),
+            },
+            BuildNode::Interior { size, .. } => *size,
+        }
+    }
+
     /// Is this a leaf without primitives (an empty cell)?
     #[must_use]
     pub fn is_empty_leaf(&self) -> bool {
@@ -46,63 +88,96 @@ impl BuildNode {
     }
 }
 
-/// Frees the tree under `node`, its two halves in parallel down to
-/// `depth` levels (the nodes are boxes freed one by one: 100 ms for the
-/// 2.3M nodes of the 1M-triangle bunny on one thread).
-pub(super) fn drop_in_parallel(node: BuildNode, depth: u32) {
-    match node {
-        BuildNode::Interior { below, above, .. } if depth > 0 => {
-            rayon::join(
-                || drop_in_parallel(*below, depth - 1),
-                || drop_in_parallel(*above, depth - 1),
-            );
-        }
-        leaf_or_deep => drop(leaf_or_deep),
-    }
-}
+/// Subtrees of at least this many interior nodes lay out their two halves
+/// in parallel (and free them there).
+const PARALLEL_INTERIORS: usize = 2048;
 
-/// Lays `root` out for the kernel. Node fields cannot overflow: the caller
-/// checked the triangle count, and a tree over n < 2^30 primitives with
-/// depth <= 64 that the builders make has far fewer than 2^30 nodes... or
-/// the leaf/child is clamped to an empty leaf, which `from_parts` would flag.
+/// Lays `root` out for the kernel, freeing it on the way. Node fields
+/// cannot overflow: the caller checked the triangle count, and a tree over
+/// n < 2^30 primitives with depth <= 64 that the builders make has far
+/// fewer than 2^30 nodes... or the leaf/child is clamped to an empty leaf,
+/// which `from_parts` would flag.
 #[must_use]
-pub fn flatten(root: &BuildNode, bounds: Bounds) -> BuiltTree {
-    let mut nodes = vec![Node::EMPTY_LEAF];
-    let mut prims = Vec::new();
-    let mut max_depth = 0;
-    // (node to lay out, its slot, its depth); pop order = depth-first, below first.
-    let mut todo = vec![(root, 0usize, 0u32)];
-    while let Some((n, slot, depth)) = todo.pop() {
-        max_depth = max_depth.max(depth);
-        nodes[slot] = match n {
-            BuildNode::Leaf(p) => match p.len() {
-                0 => Node::EMPTY_LEAF,
-                1 => Node::leaf(1, p[0]).unwrap_or(Node::EMPTY_LEAF),
-                len => {
-                    let off = prims.len() as u32;
-                    prims.extend_from_slice(p);
-                    Node::leaf(len as u32, off).unwrap_or(Node::EMPTY_LEAF)
-                }
-            },
-            BuildNode::Interior {
-                axis,
-                split,
-                below,
-                above,
-            } => {
-                let child = nodes.len();
-                nodes.push(Node::EMPTY_LEAF);
-                nodes.push(Node::EMPTY_LEAF);
-                todo.push((above, child + 1, depth + 1));
-                todo.push((below, child, depth + 1));
-                Node::interior(*axis, *split, child as u32).unwrap_or(Node::EMPTY_LEAF)
-            }
-        };
-    }
+pub fn flatten(root: BuildNode, bounds: Bounds) -> BuiltTree {
+    let Size { interiors, listed } = root.size();
+    let mut nodes = vec![Node::EMPTY_LEAF; 1 + 2 * interiors];
+    let mut prims = vec![0; listed];
+    let (slot, below_root) = nodes.split_at_mut(1);
+    let place = Place {
+        interior: 0,
+        prims_at: 0,
+        depth: 0,
+    };
+    let max_depth = lay_out(root, place, &mut slot[0], below_root, &mut prims);
     BuiltTree {
         nodes,
         prims,
         bounds,
         max_depth,
+    }
+}
+
+/// Where a subtree goes: the index its root takes among the interior nodes
+/// met depth-first (its children then sit at `2k + 1`, `2k + 2`), where
+/// its listed primitives start, and its root's depth.
+#[derive(Clone, Copy)]
+struct Place {
+    interior: usize,
+    prims_at: usize,
+    depth: u32,
+}
+
+/// Writes `n` to `slot`, its descendants to `below` (the slots after its
+/// children's: exactly its subtree's, as the depth-first numbering keeps
+/// each subtree's slots together) and its listed primitives to `prims`;
+/// returns the deepest depth.
+fn lay_out(n: BuildNode, at: Place, slot: &mut Node, below: &mut [Node], prims: &mut [u32]) -> u32 {
+    match n {
+        BuildNode::Leaf(p) => {
+            *slot = match p.len() {
+                0 => Node::EMPTY_LEAF,
+                1 => Node::leaf(1, p[0]).unwrap_or(Node::EMPTY_LEAF),
+                len => {
+                    prims.copy_from_slice(&p);
+                    Node::leaf(len as u32, at.prims_at as u32).unwrap_or(Node::EMPTY_LEAF)
+                }
+            };
+            at.depth
+        }
+        BuildNode::Interior {
+            axis,
+            split,
+            below: b,
+            above: a,
+            size,
+        } => {
+            let child = 2 * at.interior + 1;
+            *slot = Node::interior(axis, split, child as u32).unwrap_or(Node::EMPTY_LEAF);
+            let (sb, sa) = (b.size(), a.size());
+            let [slot_b, slot_a, rest @ ..] = below else {
+                unreachable!("an interior node's subtree has its children's two slots")
+            };
+            let (rest_b, rest_a) = rest.split_at_mut(2 * sb.interiors);
+            let (prims_b, prims_a) = prims.split_at_mut(sb.listed);
+            let place_b = Place {
+                interior: at.interior + 1,
+                prims_at: at.prims_at,
+                depth: at.depth + 1,
+            };
+            let place_a = Place {
+                interior: at.interior + 1 + sb.interiors,
+                prims_at: at.prims_at + sb.listed,
+                depth: at.depth + 1,
+            };
+            debug_assert_eq!(rest_a.len(), 2 * sa.interiors);
+            let go_b = || lay_out(*b, place_b, slot_b, rest_b, prims_b);
+            let go_a = || lay_out(*a, place_a, slot_a, rest_a, prims_a);
+            let (db, da) = if size.interiors >= PARALLEL_INTERIORS {
+                rayon::join(go_b, go_a)
+            } else {
+                (go_b(), go_a())
+            };
+            db.max(da)
+        }
     }
 }

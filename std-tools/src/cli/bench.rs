@@ -28,7 +28,7 @@ pub(crate) struct Args {
     #[arg(required = true)]
     scenes: Vec<String>,
     /// Builders to run (comma-separated).
-    #[arg(long, value_delimiter = ',', default_values_t = ["sah".to_string(), "binned".to_string(), "median".to_string(), "middle".to_string()])]
+    #[arg(long, value_delimiter = ',', default_values_t = ["sah".to_string(), "sweep".to_string(), "binned".to_string(), "median".to_string(), "middle".to_string()])]
     builders: Vec<String>,
     /// Build threads (default: all cores). Tracing is single-threaded.
     #[arg(long)]
@@ -80,7 +80,10 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let kinds = a
         .builders
         .iter()
-        .map(|n| BuilderKind::from_name(n).ok_or_else(|| format!("unknown builder '{n}'")))
+        .map(|n| {
+            BuilderKind::from_name(n)
+                .ok_or_else(|| format!("unknown builder '{n}' (expected {})", BuilderKind::names()))
+        })
         .collect::<Result<Vec<_>, _>>()?;
     let params = BuildParams {
         threads: a.threads,

@@ -19,7 +19,7 @@ pub(crate) struct Args {
     /// Where to write the tree blob.
     #[arg(short, long)]
     output: PathBuf,
-    /// The builder: sah (default), binned, median or middle.
+    /// The builder: sah (default), sweep, binned, median or middle.
     #[arg(long, default_value = "sah")]
     builder: String,
     /// Build threads (default: all cores); the tree is the same for any count.
@@ -48,8 +48,9 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let load_ms = t.elapsed().as_secs_f64() * 1e3;
     let kind = BuilderKind::from_name(&a.builder).ok_or_else(|| {
         format!(
-            "unknown builder '{}' (expected sah, binned, median or middle)",
-            a.builder
+            "unknown builder '{}' (expected {})",
+            a.builder,
+            BuilderKind::names()
         )
     })?;
     if a.threads == Some(0) {

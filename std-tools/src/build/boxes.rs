@@ -99,7 +99,7 @@ impl Splitter for BoxSplitter<'_> {
 
     fn choose(&self, set: &Vec<Item>, cell: &Aabb) -> Option<Choice> {
         match self.rule {
-            Rule::Binned(bins) => binned::choose(set, cell, bins, &self.cost),
+            Rule::Binned(bins) => binned::choose_saving(set, cell, bins, &self.cost),
             Rule::Median(leaf) => median::choose(set, cell, leaf, true),
             Rule::Middle(leaf) => median::choose(set, cell, leaf, false),
         }

@@ -9,20 +9,32 @@
 //! a box lying in the plane goes to the side the rule chose.
 
 use super::aabb::Aabb;
-use super::clip::{cut_box, split_boxes, PERFECT_MIN};
+use super::clip::{cut_box, cut_triangle, split_boxes};
 use super::cost::CostModel;
 use super::subdivide::{Choice, Splitter, PARALLEL_MIN};
 use super::{binned, median};
 use kdray_kernel::Triangle;
 use rayon::prelude::*;
 
-/// One triangle of a cell.
+/// One triangle of a cell. Aligned to 32 bytes (4 bytes of padding): a
+/// copy is one aligned 32-byte move, where the 28-byte items were copied
+/// in three pieces and read back across them (a stalled store forward on
+/// every item a partition moved).
 #[derive(Clone, Copy, Debug)]
+#[repr(align(32))]
 pub(super) struct Item {
     /// The triangle.
     pub(super) tri: u32,
     /// Its box, clipped to the cell.
     pub(super) b: Aabb,
+}
+
+impl Item {
+    /// A placeholder, overwritten before use.
+    const NONE: Item = Item {
+        tri: 0,
+        b: Aabb::EMPTY,
+    };
 }
 
 /// How a box builder picks its plane.
@@ -36,14 +48,27 @@ pub(super) enum Rule {
     Middle(usize),
 }
 
+/// How a box builder bounds the parts of a triangle straddling the plane,
+/// by the size of the cell: the larger the cell, the more a tight box
+/// saves below it.
+#[derive(Clone, Copy)]
+pub(super) struct Straddlers<'a> {
+    /// The triangles.
+    pub(super) triangles: &'a [Triangle],
+    /// Cells of at least this many triangles clip straddlers exactly to
+    /// each child's cell ([`split_boxes`], perfect splits).
+    pub(super) clip_min: usize,
+    /// Smaller cells of at least this many cut the triangle by the plane
+    /// ([`cut_triangle`]); smaller ones still cut its box ([`cut_box`]).
+    pub(super) cut_min: usize,
+}
+
 /// The box splitter.
 pub(super) struct BoxSplitter<'a> {
     pub(super) rule: Rule,
     pub(super) cost: CostModel,
-    /// The triangles, for perfect splits (straddlers clipped to each
-    /// child's cell, in cells of at least [`PERFECT_MIN`] triangles);
-    /// `None`: their boxes are cut by the plane.
-    pub(super) perfect: Option<&'a [Triangle]>,
+    /// `None`: every straddler's box is cut by the plane.
+    pub(super) straddlers: Option<Straddlers<'a>>,
 }
 
 impl BoxSplitter<'_> {
@@ -74,19 +99,24 @@ impl Splitter for BoxSplitter<'_> {
 
     fn choose(&self, set: &Vec<Item>, cell: &Aabb) -> Option<Choice> {
         match self.rule {
-            Rule::Binned(bins) => binned::choose(set, cell, bins, &self.cost),
+            Rule::Binned(bins) => binned::choose_saving(set, cell, bins, &self.cost),
             Rule::Median(leaf) => median::choose(set, cell, leaf, true),
             Rule::Middle(leaf) => median::choose(set, cell, leaf, false),
         }
     }
 
     fn partition(&self, set: Vec<Item>, cell: &Aabb, c: &Choice) -> (Vec<Item>, Vec<Item>) {
-        if let Some(tris) = self.perfect.filter(|_| set.len() >= PERFECT_MIN) {
-            return partition(set, c, |it| {
-                split_boxes(&tris[it.tri as usize], cell, c.axis, c.pos)
-            });
+        let n = set.len();
+        let (a, p) = (c.axis, c.pos);
+        match self.straddlers {
+            Some(s) if n >= s.clip_min => partition(set, c, |it| {
+                split_boxes(&s.triangles[it.tri as usize], cell, a, p)
+            }),
+            Some(s) if n >= s.cut_min => partition(set, c, |it| {
+                cut_triangle(&s.triangles[it.tri as usize], &it.b, cell, a, p)
+            }),
+            _ => partition(set, c, |it| cut_box(&it.b, cell, a, p)),
         }
-        partition(set, c, |it| cut_box(&it.b, cell, c.axis, c.pos))
     }
 }
 
@@ -96,56 +126,115 @@ pub(super) fn bytes(items: &Vec<Item>) -> usize {
 }
 
 /// A leaf's triangles: partitions keep the root's index order, so the
-/// items are already sorted.
+/// items are already sorted. Copied into a list of their own: collected in
+/// place, each leaf kept its items' storage (7 times the bytes; with
+/// partitions in place, its ancestors' too) until the tree was laid out.
 pub(super) fn prims(items: Vec<Item>) -> Vec<u32> {
-    items.into_iter().map(|i| i.tri).collect()
+    items.iter().map(|i| i.tri).collect()
+}
+
+/// Which sides of the plane of `c` an item goes to (module docs): (below,
+/// above); a straddler goes to both.
+#[inline]
+fn sides(it: &Item, c: &Choice) -> (bool, bool) {
+    let (lo, hi, p) = (it.b.min[c.axis], it.b.max[c.axis], c.pos);
+    // `&` and `|`, not `&&` and `||`: no branches (which side an item
+    // goes to is unpredictable).
+    let planar = (lo == p) & (hi == p);
+    (
+        (lo < p) | (planar & c.planar_below),
+        (hi > p) | (planar & !c.planar_below),
+    )
 }
 
 /// The items of the cells below and above the plane of `c` (module docs),
 /// in the order of `set`; `cut` gives a straddling item's boxes in the
-/// child cells (`None`: it misses that child). Large cells are split in
-/// parallel chunks, joined in order: the same result for any thread count.
-pub(super) fn partition<F>(set: Vec<Item>, c: &Choice, cut: F) -> (Vec<Item>, Vec<Item>)
+/// child cells (`None`: it misses that child). The cell below keeps the
+/// storage of `set` (its items are moved forward in place), the cell above
+/// gets an exactly sized list; when every item goes to one side (a plane
+/// cutting off empty space), that side takes `set` as it is. Large cells
+/// are split in parallel chunks, joined in order: the same result for any
+/// thread count.
+pub(super) fn partition<F>(mut set: Vec<Item>, c: &Choice, cut: F) -> (Vec<Item>, Vec<Item>)
 where
     F: Fn(&Item) -> (Option<Aabb>, Option<Aabb>) + Sync,
 {
-    let (a, p) = (c.axis, c.pos);
-    let split = |chunk: &[Item]| {
-        // Room for every triangle on each side; the spare is given back.
-        let mut below = Vec::with_capacity(chunk.len());
-        let mut above = Vec::with_capacity(chunk.len());
-        for it in chunk {
-            let (lo, hi) = (it.b.min[a], it.b.max[a]);
-            if lo == p && hi == p {
-                if c.planar_below {
-                    below.push(*it);
-                } else {
-                    above.push(*it);
+    let count = |chunk: &[Item]| {
+        chunk.iter().fold((0usize, 0usize), |(b, a), it| {
+            let (gb, ga) = sides(it, c);
+            (b + usize::from(gb), a + usize::from(ga))
+        })
+    };
+    let (nb, na) = if set.len() >= PARALLEL_MIN {
+        set.par_chunks(PARALLEL_MIN)
+            .map(count)
+            .reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1))
+    } else {
+        count(&set)
+    };
+    if na == 0 {
+        return (set, Vec::new());
+    }
+    if nb == 0 {
+        return (Vec::new(), set);
+    }
+    // Moves `chunk`'s items below to its front (an item yields at most one
+    // item below, so writes never overtake reads) and writes those above
+    // to `above`, which has a spare slot: an item on one side is written
+    // to both and kept where it goes, without a branch on the side.
+    // Returns how many there are below and above.
+    let split = |chunk: &mut [Item], above: &mut [Item]| {
+        let (mut kept, mut up) = (0, 0);
+        for i in 0..chunk.len() {
+            let it = chunk[i];
+            match sides(&it, c) {
+                (true, true) => {
+                    let (b, t) = cut(&it);
+                    if let Some(b) = b {
+                        chunk[kept] = Item { tri: it.tri, b };
+                        kept += 1;
+                    }
+                    if let Some(b) = t {
+                        above[up] = Item { tri: it.tri, b };
+                        up += 1;
+                    }
                 }
-            } else if hi <= p {
-                below.push(*it);
-            } else if lo >= p {
-                above.push(*it);
-            } else {
-                let (b, t) = cut(it);
-                below.extend(b.map(|b| Item { tri: it.tri, b }));
-                above.extend(t.map(|b| Item { tri: it.tri, b }));
+                (gb, ga) => {
+                    chunk[kept] = it;
+                    above[up] = it;
+                    kept += usize::from(gb);
+                    up += usize::from(ga);
+                }
             }
         }
-        (below, above)
+        (kept, up)
     };
-    let (mut below, mut above) = if set.len() >= PARALLEL_MIN {
-        let parts: Vec<_> = set.par_chunks(PARALLEL_MIN).map(split).collect();
-        let (mut below, mut above) = (Vec::new(), Vec::new());
-        for (b, a) in parts {
-            below.extend_from_slice(&b);
+    let room = |n: usize| vec![Item::NONE; n + 1];
+    let mut above;
+    if set.len() >= PARALLEL_MIN {
+        let parts: Vec<(usize, Vec<Item>)> = set
+            .par_chunks_mut(PARALLEL_MIN)
+            .map(|chunk| {
+                let mut above = room(count(chunk).1);
+                let (kept, up) = split(chunk, &mut above);
+                above.truncate(up);
+                (kept, above)
+            })
+            .collect();
+        above = Vec::with_capacity(na);
+        let mut below = 0;
+        for (k, (kept, a)) in parts.into_iter().enumerate() {
+            let from = k * PARALLEL_MIN;
+            set.copy_within(from..from + kept, below);
+            below += kept;
             above.extend_from_slice(&a);
         }
-        (below, above)
+        set.truncate(below);
     } else {
-        split(&set)
-    };
-    below.shrink_to_fit();
-    above.shrink_to_fit();
-    (below, above)
+        above = room(na);
+        let (kept, up) = split(&mut set, &mut above);
+        set.truncate(kept);
+        above.truncate(up);
+    }
+    (set, above)
 }

@@ -66,14 +66,26 @@ impl CostModel {
     #[inline]
     #[must_use]
     pub fn split(&self, p_below: f64, n_below: usize, p_above: f64, n_above: usize) -> f64 {
-        let empty = n_below == 0 || n_above == 0;
-        self.interior(
-            p_below,
-            self.leaf(n_below),
-            p_above,
-            self.leaf(n_above),
-            empty,
-        )
+        self.split_counts(p_below, n_below as f64, p_above, n_above as f64)
+    }
+
+    /// [`CostModel::split`] with the counts as `f64`, without branches,
+    /// for loops that price many planes at once.
+    #[inline]
+    #[must_use]
+    pub(super) fn split_counts(
+        &self,
+        p_below: f64,
+        n_below: f64,
+        p_above: f64,
+        n_above: f64,
+    ) -> f64 {
+        let empty = n_below == 0.0 || n_above == 0.0;
+        let lambda = if empty { self.empty_factor } else { 1.0 };
+        lambda
+            * (self.traversal
+                + p_below * (self.intersection * n_below)
+                + p_above * (self.intersection * n_above))
     }
 }
 
@@ -119,7 +131,12 @@ pub(super) struct AreaRatios {
 impl AreaRatios {
     /// For planes along `axis` of `cell`; `None` when the cell has no area.
     pub(super) fn new(cell: &Aabb, axis: usize) -> Option<AreaRatios> {
-        let area = cell.area();
+        Self::with_area(cell, axis, cell.area())
+    }
+
+    /// [`AreaRatios::new`] given the cell's area (computed once for the
+    /// three axes).
+    pub(super) fn with_area(cell: &Aabb, axis: usize, area: f64) -> Option<AreaRatios> {
         if area <= 0.0 {
             return None;
         }

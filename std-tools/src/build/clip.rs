@@ -284,6 +284,28 @@ fn bounds(poly: &Polygon, cell: &Aabb, eps: f64) -> Option<Aabb> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::rng::Rng;
+
+    /// Asserts that `b` holds (to a rounding slack) every point of a
+    /// barycentric grid of `n` steps over `t` lying in `cell`, and is
+    /// `Some` when any does.
+    fn assert_holds_points_in(b: Option<Aabb>, t: &Triangle, cell: &Aabb, n: usize) {
+        for i in 0..=n {
+            for j in 0..=(n - i) {
+                let (u, v) = (i as f32 / n as f32, j as f32 / n as f32);
+                let p: [f32; 3] = std::array::from_fn(|a| {
+                    t.v[0][a] + u * (t.v[1][a] - t.v[0][a]) + v * (t.v[2][a] - t.v[0][a])
+                });
+                if (0..3).all(|a| p[a] >= cell.min[a] && p[a] <= cell.max[a]) {
+                    let b = b.expect("a point inside: kept");
+                    let slack = |a: usize| 1e-3 * (1.0 + p[a].abs());
+                    assert!(
+                        (0..3).all(|a| p[a] >= b.min[a] - slack(a) && p[a] <= b.max[a] + slack(a))
+                    );
+                }
+            }
+        }
+    }
 
     fn tri(v: [[f32; 3]; 3]) -> Triangle {
         Triangle { v }
@@ -330,13 +352,8 @@ mod tests {
 
     #[test]
     fn box_holds_every_clipped_point() {
-        let mut s = 7u64;
-        let mut r = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((s >> 40) as f32) / (1u64 << 24) as f32 * 2.0 - 1.0
-        };
+        let mut rng = Rng::new(7);
+        let mut r = || rng.range(-1.0, 1.0);
         for _ in 0..2000 {
             let t = tri(std::array::from_fn(|_| std::array::from_fn(|_| r() * 1e3)));
             let c = cell(
@@ -344,33 +361,14 @@ mod tests {
                 [600.0, 600.0, 600.0],
             );
             let b = clipped_box(&t, &c);
-            // Points of the triangle (barycentric grid) inside the cell are inside the box.
-            for i in 0..=20 {
-                for j in 0..=(20 - i) {
-                    let (u, v) = (i as f32 / 20.0, j as f32 / 20.0);
-                    let p: [f32; 3] = std::array::from_fn(|a| {
-                        t.v[0][a] + u * (t.v[1][a] - t.v[0][a]) + v * (t.v[2][a] - t.v[0][a])
-                    });
-                    if (0..3).all(|a| p[a] >= c.min[a] && p[a] <= c.max[a]) {
-                        let b = b.expect("a point inside: kept");
-                        let slack = |a: usize| 1e-3 * (1.0 + p[a].abs());
-                        assert!((0..3)
-                            .all(|a| p[a] >= b.min[a] - slack(a) && p[a] <= b.max[a] + slack(a)));
-                    }
-                }
-            }
+            assert_holds_points_in(b, &t, &c, 20);
         }
     }
 
     #[test]
     fn cut_triangle_boxes_hold_every_point_in_their_cell() {
-        let mut s = 11u64;
-        let mut r = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((s >> 40) as f32) / (1u64 << 24) as f32 * 2.0 - 1.0
-        };
+        let mut rng = Rng::new(11);
+        let mut r = || rng.range(-1.0, 1.0);
         let mut cut = 0;
         for _ in 0..3000 {
             let t = tri(std::array::from_fn(|_| std::array::from_fn(|_| r() * 1e3)));
@@ -390,21 +388,7 @@ mod tests {
                 if let Some(g) = got {
                     assert!((0..3).all(|a| g.min[a] >= child.min[a] && g.max[a] <= child.max[a]));
                 }
-                for i in 0..=24 {
-                    for j in 0..=(24 - i) {
-                        let (u, v) = (i as f32 / 24.0, j as f32 / 24.0);
-                        let p: [f32; 3] = std::array::from_fn(|a| {
-                            t.v[0][a] + u * (t.v[1][a] - t.v[0][a]) + v * (t.v[2][a] - t.v[0][a])
-                        });
-                        if (0..3).all(|a| p[a] >= child.min[a] && p[a] <= child.max[a]) {
-                            let g = got.expect("a point inside: kept");
-                            let slack = |a: usize| 1e-3 * (1.0 + p[a].abs());
-                            assert!((0..3).all(
-                                |a| p[a] >= g.min[a] - slack(a) && p[a] <= g.max[a] + slack(a)
-                            ));
-                        }
-                    }
-                }
+                assert_holds_points_in(got, &t, &child, 24);
             }
         }
         assert!(cut > 1000, "{cut}");

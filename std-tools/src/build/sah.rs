@@ -42,10 +42,9 @@
 //! to [`SMALL_MAX`] triangles ([`SWEEP_NONE`]) and prices every box edge
 //! exactly below: keeping event lists sorted through split after split
 //! cost more than binning the same cells, and the greedy SAH's trees came
-//! out no worse (bunny 28.95 against 29.07, sponza 53.32 against 53.68,
+//! out no worse (bunny 28.95 against 29.07, sponza 53.57 against 53.70,
 //! the 1.1M-triangle bunny 33.33 against 33.49; camera and random rays
-//! within the noise), at 20% less build time on the bunny, 16% less CPU
-//! on the 1M mesh.
+//! within the noise), in two thirds of the build time (`docs/builders.md`).
 
 use super::aabb::Aabb;
 use super::binned;

@@ -8,9 +8,13 @@
 //! were two thirds of all cells and most of the build. Here a cell holds
 //! its (triangle, box) items, splits them like the box builders (clipping
 //! straddlers as event cells of its size do), and counts with comparisons
-//! over fixed lanes, which vectorise. Measured on the bunny (same tree):
-//! small below 16 triangles, 3% less build time; below 32, 2.5% less
-//! again; below 64, slower than 32.
+//! over fixed lanes, which vectorise. Measured on the bunny against the
+//! event sweep (same tree): small below 16 triangles, 3% less build time;
+//! below 32, 2.5% less again; below 64, slower than 32. Against binning
+//! (the `sah` builder bins every larger cell), small below 16 is the
+//! faster: cells of 16-31 triangles binned into 12-19 bins cost the
+//! bunny, sponza and fandisk builds 10-14% less than priced exactly here,
+//! for tree costs +0.01%, +0.44% and +0.09%.
 //!
 //! For a plane at `p` on one axis (as the sweep counts, see
 //! [`sah`](super::sah)): below, the boxes starting before `p` (a box lying
@@ -24,22 +28,20 @@ use super::boxes::Item;
 use super::cost::{AreaRatios, CostModel};
 use super::subdivide::Choice;
 
-/// Cells with fewer triangles than this are small (module docs: 16 and 64
-/// were slower).
-pub(super) const SMALL_MAX: usize = 32;
+/// Cells with fewer triangles than this are small (module docs).
+pub(super) const SMALL_MAX: usize = 16;
 
 /// Room for every box of a small cell.
-const LANES: usize = 32;
+const LANES: usize = 16;
 const _: () = assert!(SMALL_MAX <= LANES);
 
 /// The cheapest plane of the small cell `cell` holding `items` (module
 /// docs), or `None` when no box edge lies strictly inside it.
 pub(super) fn choose(items: &[Item], cell: &Aabb, cost: &CostModel) -> Option<Choice> {
     // The cheapest; the lower axis on a tie. Cells of up to 8 triangles
-    // (most of them) price a quarter as many candidates as the largest.
+    // (most of them) price half as many candidates as the largest.
     let on = |axis| match items.len() {
         0..=8 => choose_on::<8, 16>(items, cell, axis, cost),
-        9..=16 => choose_on::<16, 32>(items, cell, axis, cost),
         _ => choose_on::<LANES, { 2 * LANES }>(items, cell, axis, cost),
     };
     (0..3)

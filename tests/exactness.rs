@@ -173,3 +173,25 @@ fn grid_rays_through_planes_edges_and_vertices() {
     }
     assert_matches_brute(&tris, &rays);
 }
+
+/// Found by `hostile_rays_never_panic_and_match_brute_force` in a CI run
+/// (shrunk): triangles lying in the x = 0 plane (two collapsed to a
+/// point), a ray from a subnormal y on that plane, over t in [-inf, 0].
+#[test]
+fn ray_from_plane_of_flat_triangles_over_negative_t() {
+    let t = |v: [[f32; 3]; 3]| Triangle { v };
+    let tris = [
+        t([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
+        t([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]),
+        t([[0.0, 0.0, 0.0], [0.0, 4.0, 0.0], [0.0, -4.0, 0.0]]),
+        t([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]),
+        t([[0.0, 0.0, 0.0], [3.0, 0.0, -2.0], [0.0, 0.0, 2.5]]),
+    ];
+    let ray = Ray {
+        origin: [0.0, 2.938736e-39, 0.0],
+        tmin: f32::NEG_INFINITY,
+        dir: [-2.5473, 2.938736e-39, 1.3442075],
+        tmax: 0.0,
+    };
+    assert_matches_brute(&tris, &[ray]);
+}

@@ -105,7 +105,8 @@ impl Closest {
 pub struct CellRay {
     /// The origin.
     pub org: [f32; 3],
-    /// `1/dir`, `±inf` for a zero component (sign kept).
+    /// `1/dir`, `±inf` for a zero component (sign kept), NaN for a
+    /// component whose inverse overflows (`new`).
     pub inv: [f32; 3],
     /// 1 where the ray enters the above child first (`inv < 0`), else 0.
     pub above_first: [u32; 3],
@@ -133,12 +134,23 @@ impl CellRay {
         let inv = ray.dir.map(|d| 1.0 / d);
         let above_first = inv.map(|i| u32::from(i < 0.0));
         let (mut enter, mut exit) = (f32::NEG_INFINITY, f32::INFINITY);
+        let mut nearly_parallel = false;
         for a in 0..3 {
             if inv[a].is_infinite() {
-                // Parallel to this slab (d = ±0), or so nearly (|d| subnormal,
-                // 1/d overflows) that it could only leave it beyond any hit:
-                // inside it for all t, or never. (Taking the slab test here
-                // would compute 0 * inf = NaN for an origin on a face.)
+                if ray.dir[a] != 0.0 {
+                    // |d| so small that 1/d overflows (< 2^-128) is not
+                    // parallel: the ray still crosses this axis's planes,
+                    // at t = (p - o) / d, which is any size (t = -1 for an
+                    // origin and a direction of the same subnormal size; a
+                    // proptest found the ray skipping the cell of its
+                    // hit). Its slab clips nothing, and its inverse
+                    // becomes NaN below.
+                    nearly_parallel = true;
+                    continue;
+                }
+                // Parallel to this slab (d = ±0): inside it for all t, or
+                // never. (Taking the slab test here would compute
+                // 0 * inf = NaN for an origin on a face.)
                 if org[a] < bounds.min[a] || org[a] > bounds.max[a] {
                     return None;
                 }
@@ -151,6 +163,15 @@ impl CellRay {
             enter = Span::max(enter, Span::min(ta, tb));
             exit = Span::min(exit, Span::max(ta, tb));
         }
+        // A NaN inverse makes every split plane on a nearly parallel axis
+        // visit both children over the whole interval (NaN t_split). Only
+        // on this rare branch: a select per component on every ray, or
+        // storing into `inv` in the loop, cost 2% of a camera-ray trace.
+        let inv = if nearly_parallel {
+            inv.map(|i| if i.is_infinite() { f32::NAN } else { i })
+        } else {
+            inv
+        };
         // Slack from the ray's extent through the scene along its dominant
         // axis, which bounds every t the scene's triangles can produce.
         let kz = sr.k[2];
@@ -158,7 +179,10 @@ impl CellRay {
             .abs()
             .max((bounds.max[kz] - org[kz]).abs())
             * inv[kz].abs();
+        // No finite extent (the dominant component's inverse overflowed
+        // too): an infinite slack, every cell visited over every t.
         let slack = SLACK * zmax;
+        let slack = if slack.is_nan() { f32::INFINITY } else { slack };
         let t0 = ray.tmin.max(enter) - slack;
         let t1 = ray.tmax.min(exit) + slack;
         if t0 <= t1 {

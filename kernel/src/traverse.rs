@@ -168,7 +168,14 @@ impl CellRay {
         // on this rare branch: a select per component on every ray, or
         // storing into `inv` in the loop, cost 2% of a camera-ray trace.
         let inv = if nearly_parallel {
-            inv.map(|i| if i.is_infinite() { f32::NAN } else { i })
+            core::array::from_fn(|a| {
+                let tiny = inv[a].is_infinite() && ray.dir[a] != 0.0;
+                if tiny {
+                    f32::NAN
+                } else {
+                    inv[a]
+                }
+            })
         } else {
             inv
         };

@@ -197,6 +197,14 @@ fn bad_inputs_get_clear_errors() {
         ),
         (vec!["build", &nan_obj, "-o", &tree], "non-finite"),
         (
+            vec!["build", &obj, "-o", &tree, "--builder", "bvh"],
+            "unknown builder 'bvh' (expected one of sah, sweep, binned, median, middle)",
+        ),
+        (
+            vec!["bench", "needles", "--builders", "sah,kd"],
+            "unknown builder 'kd'",
+        ),
+        (
             vec!["build", "mesh.stl", "-o", &tree],
             "unsupported mesh format",
         ),

@@ -44,7 +44,7 @@
 //! cost more than binning the same cells, and the greedy SAH's trees came
 //! out no worse (bunny 28.95 against 29.07, sponza 53.57 against 53.70,
 //! the 1.1M-triangle bunny 33.33 against 33.49; camera and random rays
-//! within the noise), in two thirds of the build time (`docs/builders.md`).
+//! within the noise), in 55-60% of the build time (`docs/builders.md`).
 
 use super::aabb::Aabb;
 use super::binned;

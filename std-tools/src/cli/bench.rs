@@ -27,8 +27,8 @@ pub(crate) struct Args {
     /// Scenes: OBJ paths, `stadium`, `teapot-stadium:MESH` or `needles`.
     #[arg(required = true)]
     scenes: Vec<String>,
-    /// Builders to run (comma-separated).
-    #[arg(long, value_delimiter = ',', default_values_t = ["sah".to_string(), "sweep".to_string(), "binned".to_string(), "median".to_string(), "middle".to_string()])]
+    /// Builders to run (comma-separated; default: all of them).
+    #[arg(long, value_delimiter = ',')]
     builders: Vec<String>,
     /// Build threads (default: all cores). Tracing is single-threaded.
     #[arg(long)]
@@ -77,14 +77,14 @@ fn mrays(tree: &kdray_kernel::TriangleTree<'_>, rays: &[Ray]) -> f64 {
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
-    let kinds = a
-        .builders
-        .iter()
-        .map(|n| {
-            BuilderKind::from_name(n)
-                .ok_or_else(|| format!("unknown builder '{n}' (expected {})", BuilderKind::names()))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
+    let kinds = if a.builders.is_empty() {
+        BuilderKind::ALL.to_vec()
+    } else {
+        a.builders
+            .iter()
+            .map(|n| BuilderKind::parse(n))
+            .collect::<Result<Vec<_>, _>>()?
+    };
     let params = BuildParams {
         threads: a.threads,
         ..BuildParams::default()

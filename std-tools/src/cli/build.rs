@@ -46,13 +46,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let t = Instant::now();
     let tris = mesh::load(&a.mesh)?;
     let load_ms = t.elapsed().as_secs_f64() * 1e3;
-    let kind = BuilderKind::from_name(&a.builder).ok_or_else(|| {
-        format!(
-            "unknown builder '{}' (expected {})",
-            a.builder,
-            BuilderKind::names()
-        )
-    })?;
+    let kind = BuilderKind::parse(&a.builder)?;
     if a.threads == Some(0) {
         return Err("--threads must be at least 1".into());
     }

@@ -9,7 +9,7 @@
 //! a box lying in the plane goes to the side the rule chose.
 
 use super::aabb::Aabb;
-use super::clip::{cut_box, cut_triangle, split_boxes};
+use super::clip::{cut_box, cut_triangle};
 use super::cost::CostModel;
 use super::subdivide::{Choice, Splitter, PARALLEL_MIN};
 use super::{binned, median};
@@ -55,11 +55,8 @@ pub(super) enum Rule {
 pub(super) struct Straddlers<'a> {
     /// The triangles.
     pub(super) triangles: &'a [Triangle],
-    /// Cells of at least this many triangles clip straddlers exactly to
-    /// each child's cell ([`split_boxes`], perfect splits).
-    pub(super) clip_min: usize,
-    /// Smaller cells of at least this many cut the triangle by the plane
-    /// ([`cut_triangle`]); smaller ones still cut its box ([`cut_box`]).
+    /// Cells of at least this many triangles cut the triangle by the plane
+    /// ([`cut_triangle`]); smaller ones cut its box ([`cut_box`]).
     pub(super) cut_min: usize,
 }
 
@@ -109,9 +106,6 @@ impl Splitter for BoxSplitter<'_> {
         let n = set.len();
         let (a, p) = (c.axis, c.pos);
         match self.straddlers {
-            Some(s) if n >= s.clip_min => partition(set, c, |it| {
-                split_boxes(&s.triangles[it.tri as usize], cell, a, p)
-            }),
             Some(s) if n >= s.cut_min => partition(set, c, |it| {
                 cut_triangle(&s.triangles[it.tri as usize], &it.b, cell, a, p)
             }),

@@ -26,9 +26,8 @@ const MARGIN: f64 = 1.0 / 1_099_511_627_776.0;
 /// everywhere / from 16 triangles up / from 32: SAH 28.87 / 29.07 / 29.47
 /// (263k / 170k / 159k nodes, build ~20% faster at 16), binned 29.22 /
 /// 29.36 / 29.74 (never: 32.79); fandisk binned 24.30 / 24.45 / 24.76.
-/// The SAH builder's threshold; the binned builder now clips from
-/// `binned::CLIP_MIN` and cuts triangles by the plane ([`cut_triangle`])
-/// from `binned::CUT_MIN`.
+/// The SAH builder's threshold; the binned builder never clips, and cuts
+/// triangles by the plane ([`cut_triangle`]) from `binned::CUT_MIN`.
 pub(super) const PERFECT_MIN: usize = 16;
 
 /// Vertices of a triangle clipped by six planes: at most 3 + 6.

@@ -311,7 +311,6 @@ fn build_in_pool(
             };
             let straddlers = (kind == BuilderKind::Binned).then_some(boxes::Straddlers {
                 triangles,
-                clip_min: binned::CLIP_MIN,
                 cut_min: binned::CUT_MIN,
             });
             let s = boxes::BoxSplitter {

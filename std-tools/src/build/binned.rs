@@ -52,10 +52,10 @@ pub(super) fn choose_saving(
 /// cheaper cut, cutting from 16 / 24 / 32: 29.68 / 29.89 / 30.03 at 83 /
 /// 80 / 76 ms (sponza 54.46 / 54.68 / 54.92, SAH 53.68, build -10% at
 /// 32; 8 cuts more and builds more nodes: 29.61, +5%). Clipping exactly
-/// in cells of 1024 and more, as this builder once did,
-/// bought 0.2% / 0.6% / 0.1% of tree cost on the bunny / sponza / 1M bunny
-/// (30.56 vs 30.63, 56.47 vs 56.83, 34.37 vs 34.42) for 4-5% of the build
-/// (bunny, one thread, best of 8 interleaved: 42.4 vs 40.4 ms).
+/// in cells of 1024 and more, as this builder once did, bought 0.2% /
+/// 0.6% / 0.1% of tree cost on the bunny / sponza / 1M bunny (30.56 vs
+/// 30.63, 56.47 vs 56.83, 34.37 vs 34.42) for 4-5% of the build (bunny,
+/// one thread, best of 8 interleaved: 42.4 vs 40.4 ms).
 pub(super) const CUT_MIN: usize = 32;
 
 /// The most bins per axis: the SAH builder's large cells use 256.

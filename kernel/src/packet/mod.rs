@@ -206,11 +206,7 @@ impl<'a> TriangleTree<'a> {
     #[inline]
     #[must_use]
     pub fn closest_hit4(&self, packet: &Packet4) -> [Hit; 4] {
-        if cfg!(feature = "scalar-packets") {
-            return self.closest_hit_lanes(packet);
-        }
-        let lr = LaneRays::<f32x4, 4>::new(packet, &self.bounds);
-        self.closest_lanes(&lr, &mut LaneStack::new(lr.s2))
+        self.closest_packet::<f32x4, 4>(packet)
     }
 
     /// [`closest_hit4`](TriangleTree::closest_hit4) for 8 lanes.
@@ -220,11 +216,7 @@ impl<'a> TriangleTree<'a> {
     #[inline]
     #[must_use]
     pub fn closest_hit8(&self, packet: &Packet8) -> [Hit; 8] {
-        if cfg!(feature = "scalar-packets") {
-            return self.closest_hit_lanes(packet);
-        }
-        let lr = LaneRays::<f32x8, 8>::new(packet, &self.bounds);
-        self.closest_lanes(&lr, &mut LaneStack::new(lr.s2))
+        self.closest_packet::<f32x8, 8>(packet)
     }
 
     /// [`closest_hit4`](TriangleTree::closest_hit4) for 16 lanes.
@@ -234,11 +226,7 @@ impl<'a> TriangleTree<'a> {
     #[inline]
     #[must_use]
     pub fn closest_hit16(&self, packet: &Packet16) -> [Hit; 16] {
-        if cfg!(feature = "scalar-packets") {
-            return self.closest_hit_lanes(packet);
-        }
-        let lr = LaneRays::<f32x16, 16>::new(packet, &self.bounds);
-        self.closest_lanes(&lr, &mut LaneStack::new(lr.s2))
+        self.closest_packet::<f32x16, 16>(packet)
     }
 
     /// Whether each lane of `packet` hits any triangle, exactly as
@@ -250,11 +238,7 @@ impl<'a> TriangleTree<'a> {
     #[inline]
     #[must_use]
     pub fn any_hit4(&self, packet: &Packet4) -> [bool; 4] {
-        if cfg!(feature = "scalar-packets") {
-            return self.any_hit_lanes(packet);
-        }
-        let lr = LaneRays::<f32x4, 4>::new(packet, &self.bounds);
-        lane_bools(self.any_lanes(&lr, &mut LaneStack::new(lr.s2)))
+        self.any_packet::<f32x4, 4>(packet)
     }
 
     /// [`any_hit4`](TriangleTree::any_hit4) for 8 lanes.
@@ -264,11 +248,7 @@ impl<'a> TriangleTree<'a> {
     #[inline]
     #[must_use]
     pub fn any_hit8(&self, packet: &Packet8) -> [bool; 8] {
-        if cfg!(feature = "scalar-packets") {
-            return self.any_hit_lanes(packet);
-        }
-        let lr = LaneRays::<f32x8, 8>::new(packet, &self.bounds);
-        lane_bools(self.any_lanes(&lr, &mut LaneStack::new(lr.s2)))
+        self.any_packet::<f32x8, 8>(packet)
     }
 
     /// [`any_hit4`](TriangleTree::any_hit4) for 16 lanes.
@@ -278,10 +258,28 @@ impl<'a> TriangleTree<'a> {
     #[inline]
     #[must_use]
     pub fn any_hit16(&self, packet: &Packet16) -> [bool; 16] {
+        self.any_packet::<f32x16, 16>(packet)
+    }
+
+    /// One packet's closest hits in `V` lanes (the scalar path with the
+    /// `scalar-packets` feature): the body of every `closest_hitN`.
+    #[inline(always)]
+    fn closest_packet<V: Lanes<N>, const N: usize>(&self, packet: &Packet<N>) -> [Hit; N] {
+        if cfg!(feature = "scalar-packets") {
+            return self.closest_hit_lanes(packet);
+        }
+        let lr = LaneRays::<V, N>::new(packet, &self.bounds);
+        self.closest_lanes(&lr, &mut LaneStack::new(lr.s2))
+    }
+
+    /// One packet's any-hit answers in `V` lanes: the body of every
+    /// `any_hitN`.
+    #[inline(always)]
+    fn any_packet<V: Lanes<N>, const N: usize>(&self, packet: &Packet<N>) -> [bool; N] {
         if cfg!(feature = "scalar-packets") {
             return self.any_hit_lanes(packet);
         }
-        let lr = LaneRays::<f32x16, 16>::new(packet, &self.bounds);
+        let lr = LaneRays::<V, N>::new(packet, &self.bounds);
         lane_bools(self.any_lanes(&lr, &mut LaneStack::new(lr.s2)))
     }
 

@@ -207,24 +207,16 @@ impl<'a> TriangleTree<'a> {
     /// above-first bits are `above_first` (`Node::first_child`'s form): the
     /// near child, the far child and the far child's index; `None` when
     /// they lie outside the node array (only an unchecked, invalid blob).
-    /// Both come from one load (they sit side by side): the walk steps into
-    /// one of them next, and an empty cell has nothing to test, so the
-    /// walks skip it at its parent instead of stepping into it and popping
-    /// back out.
+    /// The walks step into one of them next, and an empty cell has nothing
+    /// to test, so they skip it at its parent instead of stepping into it
+    /// and popping back out. Each child is read by its own index: reading
+    /// the pair in one go and ordering it by conditional moves made 8-wide
+    /// packets 2.5% slower (bunny camera tiles, 19.13 -> 19.61 Mrays/s).
     #[inline(always)]
     pub(crate) fn children(&self, node: Node, above_first: u64) -> Option<(Node, Node, usize)> {
         let first = node.first_child(above_first);
-        let upper = node.upper() as usize;
-        // One bounds check for the pair (the add is plain where `usize`
-        // holds 2^30 + 2, which the compiler sees).
-        let pair = self.nodes.get(upper..upper.saturating_add(2))?;
-        let &[below, above] = <&[Node; 2]>::try_from(pair).ok()?;
-        let (near, far) = if first == node.upper() as usize {
-            (below, above)
-        } else {
-            (above, below)
-        };
-        Some((near, far, node.other_child(first)))
+        let second = node.other_child(first);
+        Some((*self.nodes.get(first)?, *self.nodes.get(second)?, second))
     }
 
     /// The primitives of a leaf: its one primitive, or its run of the

@@ -276,15 +276,9 @@ impl<'a> TriangleTree<'a> {
                 let near = lanes & !t_split.lt(lo);
                 let far = lanes & !(near & t_split.gt(hi));
                 // The near child by the single ray's one-shift rule; an
-                // empty child drops its lanes here. Each child is read by
-                // its own index: the pair read in one go and ordered by
-                // conditional moves (`TriangleTree::children`, the single
-                // ray's way) was 2.5% slower here (8-wide camera tiles,
-                // five interleaved rounds: 19.13 -> 19.61 Mrays/s).
-                let first = node.first_child(lr.above_first_nibbles);
-                let second = node.other_child(first);
-                let (Some(&near_node), Some(&far_node)) =
-                    (self.nodes.get(first), self.nodes.get(second))
+                // empty child drops its lanes here (`TriangleTree::children`).
+                let Some((near_node, far_node, second)) =
+                    self.children(node, lr.above_first_nibbles)
                 else {
                     return;
                 };

@@ -175,7 +175,7 @@ fn grid_rays_through_planes_edges_and_vertices() {
 }
 
 /// Found by `hostile_rays_never_panic_and_match_brute_force` in a CI run
-/// (shrunk): triangles lying in the x = 0 plane (two collapsed to a
+/// (shrunk): triangles lying in the x = 0 and y = 0 planes (two collapsed to a
 /// point), a ray from a subnormal y on that plane, over t in [-inf, 0].
 #[test]
 fn ray_from_plane_of_flat_triangles_over_negative_t() {

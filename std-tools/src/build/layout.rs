@@ -11,26 +11,52 @@ use super::BuiltTree;
 pub enum BuildNode {
     /// A leaf and its primitives (sorted, no duplicates).
     Leaf(Vec<u32>),
-    /// A split plane and the two cells it makes (made by
-    /// [`BuildNode::interior`], which sizes the subtree).
-    Interior {
-        /// The split axis.
-        axis: Axis,
-        /// The split location.
-        split: f32,
-        /// The cell below the plane (`<= split`).
-        below: Box<BuildNode>,
-        /// The cell above the plane (`>= split`).
-        above: Box<BuildNode>,
-        /// The subtree's size in the kernel's layout.
-        size: Size,
-    },
+    /// A split plane and the two cells it makes ([`BuildNode::interior`]).
+    Interior(Split),
+}
+
+/// An interior node: a split plane, its two cells and the subtree's size.
+/// Its fields are private, so the size [`flatten`] lays the subtree out by
+/// is always the one [`BuildNode::interior`] computed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Split {
+    axis: Axis,
+    split: f32,
+    below: Box<BuildNode>,
+    above: Box<BuildNode>,
+    size: Size,
+}
+
+impl Split {
+    /// The split axis.
+    #[must_use]
+    pub fn axis(&self) -> Axis {
+        self.axis
+    }
+
+    /// The split location.
+    #[must_use]
+    pub fn split(&self) -> f32 {
+        self.split
+    }
+
+    /// The cell below the plane (`<= split`).
+    #[must_use]
+    pub fn below(&self) -> &BuildNode {
+        &self.below
+    }
+
+    /// The cell above the plane (`>= split`).
+    #[must_use]
+    pub fn above(&self) -> &BuildNode {
+        &self.above
+    }
 }
 
 /// A subtree's size in the kernel's layout: where its parts go is known
 /// before they are laid out, so both halves of a tree are laid out at once.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub struct Size {
+struct Size {
     /// Interior nodes, this one included.
     interiors: usize,
     /// Primitive indices listed by its leaves (a leaf of one primitive
@@ -43,7 +69,7 @@ impl BuildNode {
     #[must_use]
     pub fn interior(axis: Axis, split: f32, below: BuildNode, above: BuildNode) -> BuildNode {
         let (b, a) = (below.size(), above.size());
-        BuildNode::Interior {
+        BuildNode::Interior(Split {
             axis,
             split,
             below: Box::new(below),
@@ -52,7 +78,7 @@ impl BuildNode {
                 interiors: 1 + b.interiors + a.interiors,
                 listed: b.listed + a.listed,
             },
-        }
+        })
     }
 
     /// The subtree's size in the kernel's layout.
@@ -63,7 +89,7 @@ impl BuildNode {
                 interiors: 0,
                 listed: p.len(),
             },
-            BuildNode::Interior { size, .. } => *size,
+            BuildNode::Interior(s) => s.size,
         }
     }
 
@@ -79,9 +105,9 @@ impl BuildNode {
         while let Some(n) = todo.pop() {
             match n {
                 BuildNode::Leaf(p) => out.extend_from_slice(p),
-                BuildNode::Interior { below, above, .. } => {
-                    todo.push(above);
-                    todo.push(below);
+                BuildNode::Interior(s) => {
+                    todo.push(&s.above);
+                    todo.push(&s.below);
                 }
             }
         }
@@ -144,13 +170,13 @@ fn lay_out(n: BuildNode, at: Place, slot: &mut Node, below: &mut [Node], prims: 
             };
             at.depth
         }
-        BuildNode::Interior {
+        BuildNode::Interior(Split {
             axis,
             split,
             below: b,
             above: a,
             size,
-        } => {
+        }) => {
             let child = 2 * at.interior + 1;
             *slot = Node::interior(axis, split, child as u32).unwrap_or(Node::EMPTY_LEAF);
             let (sb, sa) = (b.size(), a.size());

@@ -29,7 +29,7 @@ mod subdivide;
 
 pub use aabb::Aabb;
 pub use cost::CostModel;
-pub use layout::{flatten, BuildNode};
+pub use layout::{flatten, BuildNode, Split};
 pub use monitor::BuildMonitor;
 
 use kdray_kernel::{Bounds, Node, Triangle, MAX_DEPTH};

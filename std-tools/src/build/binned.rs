@@ -8,7 +8,7 @@
 
 use super::aabb::Aabb;
 use super::boxes::Item;
-use super::cost::{AreaRatios, CostModel};
+use super::cost::{least_price, AreaRatios, CostModel};
 use super::subdivide::{Choice, PARALLEL_MIN};
 use rayon::prelude::*;
 use wide::f32x8;
@@ -236,17 +236,9 @@ fn price<const B: usize, const M: usize>(
             prices[axis][j] = if inside { p } else { f64::INFINITY };
         }
     }
-    // The least price by compares over whole vectors (no NaN can occur:
-    // the cell has an area), then its first lane.
-    let mut least = [f64::INFINITY; 8];
-    for chunk in prices.as_flattened().chunks_exact(8) {
-        for (l, &p) in least.iter_mut().zip(chunk) {
-            *l = if p < *l { p } else { *l };
-        }
-    }
-    let least = least
-        .iter()
-        .fold(f64::INFINITY, |a, &b| if b < a { b } else { a });
+    // The least price (no NaN can occur: the cell has an area), then its
+    // first lane.
+    let least = least_price(prices.as_flattened());
     if least == f64::INFINITY {
         return None;
     }

@@ -25,7 +25,7 @@
 
 use super::aabb::Aabb;
 use super::boxes::Item;
-use super::cost::{AreaRatios, CostModel};
+use super::cost::{least_price, AreaRatios, CostModel};
 use super::subdivide::Choice;
 
 /// Cells with fewer triangles than this are small (module docs).
@@ -96,18 +96,7 @@ fn choose_on<const L: usize, const P: usize>(
         let inside = pos[j] > lo && pos[j] < hi;
         *p = if inside { price(j).0 } else { f64::INFINITY };
     }
-    // The least price in eight running minimums, then across them: one
-    // dependent chain of 16-64 `f64::min`s, each with its NaN fix-up
-    // (prices are never NaN), cost 3% of the bunny's build.
-    let mut mins = [f64::INFINITY; 8];
-    for chunk in prices.chunks_exact(8) {
-        for (m, &c) in mins.iter_mut().zip(chunk) {
-            *m = if c < *m { c } else { *m };
-        }
-    }
-    let least = mins
-        .iter()
-        .fold(f64::INFINITY, |m, &c| if c < m { c } else { m });
+    let least = least_price(&prices);
     if least >= f64::INFINITY {
         return None;
     }

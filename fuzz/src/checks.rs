@@ -12,8 +12,7 @@
 
 use kdray::kernel::wire::{blob_checksum, Header, ENDIAN_CHECK, KIND_TRIANGLES, MAGIC, VERSION};
 use kdray::kernel::{
-    any_hit_brute, closest_hit_brute, Hit, Packet, Packet16, Packet4, Packet8, Ray, Triangle,
-    TriangleTree,
+    any_hit_brute, closest_hit_brute, Hit, Packet, Packet4, Packet8, Ray, Triangle, TriangleTree,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::build::{build, BuildParams, BuilderKind};
@@ -226,30 +225,47 @@ pub fn packet_vs_single(data: &[u8]) {
         // so the lanes walk together (packets with mixed signs go lane by
         // lane).
         let how = r.u8();
+        let shared = how & 2 != 0;
         match how & 5 {
-            0 => {
-                let mut p: Packet8 = r.packet();
-                if how & 2 != 0 {
-                    share_signs(&mut p);
-                }
-                assert_lanes(&tree, &p, tree.closest_hit8(&p), tree.any_hit8(&p));
-            }
-            1 => {
-                let mut p: Packet4 = r.packet();
-                if how & 2 != 0 {
-                    share_signs(&mut p);
-                }
-                assert_lanes(&tree, &p, tree.closest_hit4(&p), tree.any_hit4(&p));
-            }
-            _ => {
-                let mut p: Packet16 = r.packet();
-                if how & 2 != 0 {
-                    share_signs(&mut p);
-                }
-                assert_lanes(&tree, &p, tree.closest_hit16(&p), tree.any_hit16(&p));
-            }
+            0 => packet_lanes(
+                &tree,
+                &mut r,
+                shared,
+                TriangleTree::closest_hit8,
+                TriangleTree::any_hit8,
+            ),
+            1 => packet_lanes(
+                &tree,
+                &mut r,
+                shared,
+                TriangleTree::closest_hit4,
+                TriangleTree::any_hit4,
+            ),
+            _ => packet_lanes(
+                &tree,
+                &mut r,
+                shared,
+                TriangleTree::closest_hit16,
+                TriangleTree::any_hit16,
+            ),
         }
     }
+}
+
+/// Reads one packet of `N` lanes (signs made to agree when `shared`) and
+/// checks its lanes, traced by `closest` and `any`, against single rays.
+fn packet_lanes<'t, const N: usize>(
+    tree: &TriangleTree<'t>,
+    r: &mut Bytes,
+    shared: bool,
+    closest: fn(&TriangleTree<'t>, &Packet<N>) -> [Hit; N],
+    any: fn(&TriangleTree<'t>, &Packet<N>) -> [bool; N],
+) {
+    let mut p: Packet<N> = r.packet();
+    if shared {
+        share_signs(&mut p);
+    }
+    assert_lanes(tree, &p, closest(tree, &p), any(tree, &p));
 }
 
 /// Gives every lane's direction lane 0's signs, keeping the magnitudes

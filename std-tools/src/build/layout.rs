@@ -16,8 +16,8 @@ pub enum BuildNode {
 }
 
 /// An interior node: a split plane, its two cells and the subtree's size.
-/// Its fields are private, so the size [`flatten`] lays the subtree out by
-/// is always the one [`BuildNode::interior`] computed.
+/// Opaque: only [`BuildNode::interior`] makes one, so the size [`flatten`]
+/// lays the subtree out by is always the one it computed.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Split {
     axis: Axis,
@@ -25,32 +25,6 @@ pub struct Split {
     below: Box<BuildNode>,
     above: Box<BuildNode>,
     size: Size,
-}
-
-impl Split {
-    /// The split axis.
-    #[must_use]
-    pub fn axis(&self) -> Axis {
-        self.axis
-    }
-
-    /// The split location.
-    #[must_use]
-    pub fn split(&self) -> f32 {
-        self.split
-    }
-
-    /// The cell below the plane (`<= split`).
-    #[must_use]
-    pub fn below(&self) -> &BuildNode {
-        &self.below
-    }
-
-    /// The cell above the plane (`>= split`).
-    #[must_use]
-    pub fn above(&self) -> &BuildNode {
-        &self.above
-    }
 }
 
 /// A subtree's size in the kernel's layout: where its parts go is known

@@ -191,7 +191,9 @@ fn price<const B: usize, const M: usize>(
     let mut fraction = [0.0f32; M];
     // Eight true divisions at a time: the same quotients as one by one,
     // where a chain of `divss` was a third of the pricing (bunny binned
-    // build 44.2 -> 42.4 ms, one thread, best of 8 interleaved).
+    // build 44.2 -> 42.4 ms, one thread, best of 8 interleaved). Whole
+    // chunks of eight fill every candidate: `choose` picks such `M`s.
+    const { assert!(M.is_multiple_of(8), "M must be whole chunks of 8 lanes") };
     let (count, denom) = (
         f32x8::from([0., 1., 2., 3., 4., 5., 6., 7.]),
         f32x8::splat(bins as f32),

@@ -181,3 +181,23 @@ impl AreaRatios {
         )
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::least_price;
+
+    #[test]
+    fn least_price_is_the_minimum_at_every_length() {
+        // Lengths around the chunks of eight, the least in every place.
+        for n in 0..26 {
+            for at in 0..n {
+                let prices: Vec<f64> = (0..n)
+                    .map(|i| if i == at { 0.5 } else { 1.0 + i as f64 })
+                    .collect();
+                assert_eq!(least_price(&prices), 0.5, "length {n}, least at {at}");
+            }
+        }
+        assert_eq!(least_price(&[]), f64::INFINITY);
+        assert_eq!(least_price(&[f64::INFINITY; 9]), f64::INFINITY);
+    }
+}

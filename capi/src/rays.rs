@@ -1,0 +1,554 @@
+//! Triangle trees: open a blob, trace one ray, a packet of 4, 8 or 16
+//! rays in structure-of-arrays form (the shape of Embree's
+//! `rtcIntersect4/8/16`), or a stream of N rays.
+
+use crate::handle::{self, KdrayTriangleTree};
+use crate::message::write_message;
+use crate::{check_count, check_ptr, status, status_text, KdrayStatus};
+use bytemuck::{Pod, Zeroable};
+use core::ffi::c_char;
+use kdray_kernel::{Hit, Packet, Ray, TriangleTree};
+
+/// The `prim_id` of a miss.
+pub const KDRAY_MISS: u32 = 0xFFFF_FFFF;
+/// The `prim_id` of an occluded ray in a `.hits` file of any-hit records
+/// (`t = -INFINITY`); the C functions answer occlusion as 1 or 0.
+pub const KDRAY_OCCLUDED: u32 = 0xFFFF_FFFE;
+
+// Literals for the header generator, equal to the kernel's markers.
+const _: () = assert!(KDRAY_MISS == kdray_kernel::MISS && KDRAY_OCCLUDED == kdray_kernel::OCCLUDED);
+
+/// A ray `org + t * dir` for `t` in `[tnear, tfar]`: 32 bytes, the field
+/// order of Embree's `RTCRay` without its time, mask, id and flags, and
+/// of a `.rays` file record.
+///
+/// The direction need not be normalised. A ray with a non-finite origin,
+/// a NaN, infinite or zero direction, a NaN bound or `tnear > tfar`
+/// misses.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct KdrayRay {
+    /// Origin x.
+    pub org_x: f32,
+    /// Origin y.
+    pub org_y: f32,
+    /// Origin z.
+    pub org_z: f32,
+    /// Start of the ray's interval.
+    pub tnear: f32,
+    /// Direction x.
+    pub dir_x: f32,
+    /// Direction y.
+    pub dir_y: f32,
+    /// Direction z.
+    pub dir_z: f32,
+    /// End of the ray's interval (may be `INFINITY`).
+    pub tfar: f32,
+}
+
+/// A closest hit: 16 bytes, the record of a `.hits` file.
+///
+/// The hit point is `(1 - u - v) * v0 + u * v1 + v * v2` of triangle
+/// `prim_id`'s vertices; a miss is `t = INFINITY`, `prim_id = KDRAY_MISS`,
+/// `u = v = 0`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct KdrayHit {
+    /// Ray parameter of the hit (`INFINITY` for a miss).
+    pub t: f32,
+    /// Index of the triangle hit in the mesh the blob was built from.
+    pub prim_id: u32,
+    /// Barycentric weight of vertex 1.
+    pub u: f32,
+    /// Barycentric weight of vertex 2.
+    pub v: f32,
+}
+
+// The C records are the kernel's records, so a stream is cast, not copied.
+const _: () = {
+    assert!(core::mem::size_of::<KdrayRay>() == core::mem::size_of::<Ray>());
+    assert!(core::mem::size_of::<KdrayHit>() == core::mem::size_of::<Hit>());
+};
+
+/// `N` rays in structure-of-arrays form: lane `l` is the ray
+/// `(org_x[l], org_y[l], org_z[l]) + t * (dir_x[l], dir_y[l], dir_z[l])`
+/// over `[tnear[l], tfar[l]]` (Embree's `RTCRayN` layout, without time,
+/// mask, id and flags).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KdrayRayN<const N: usize> {
+    /// Origin x of each lane.
+    pub org_x: [f32; N],
+    /// Origin y of each lane.
+    pub org_y: [f32; N],
+    /// Origin z of each lane.
+    pub org_z: [f32; N],
+    /// Start of each lane's interval.
+    pub tnear: [f32; N],
+    /// Direction x of each lane.
+    pub dir_x: [f32; N],
+    /// Direction y of each lane.
+    pub dir_y: [f32; N],
+    /// Direction z of each lane.
+    pub dir_z: [f32; N],
+    /// End of each lane's interval.
+    pub tfar: [f32; N],
+}
+
+/// `N` closest hits in structure-of-arrays form, each lane as [`KdrayHit`].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KdrayHitN<const N: usize> {
+    /// Ray parameter of each lane's hit.
+    pub t: [f32; N],
+    /// Triangle of each lane's hit (`KDRAY_MISS` for a miss or an inactive lane).
+    pub prim_id: [u32; N],
+    /// Barycentric weight of vertex 1, each lane.
+    pub u: [f32; N],
+    /// Barycentric weight of vertex 2, each lane.
+    pub v: [f32; N],
+}
+
+/// A packet of 4 rays (`rtcIntersect4`'s `RTCRay4`).
+pub type KdrayRay4 = KdrayRayN<4>;
+/// A packet of 8 rays.
+pub type KdrayRay8 = KdrayRayN<8>;
+/// A packet of 16 rays.
+pub type KdrayRay16 = KdrayRayN<16>;
+/// The hits of a packet of 4 rays.
+pub type KdrayHit4 = KdrayHitN<4>;
+/// The hits of a packet of 8 rays.
+pub type KdrayHit8 = KdrayHitN<8>;
+/// The hits of a packet of 16 rays.
+pub type KdrayHit16 = KdrayHitN<16>;
+
+impl From<KdrayHit> for Hit {
+    fn from(h: KdrayHit) -> Hit {
+        bytemuck::cast(h)
+    }
+}
+
+impl From<Hit> for KdrayHit {
+    fn from(h: Hit) -> KdrayHit {
+        bytemuck::cast(h)
+    }
+}
+
+impl From<KdrayRay> for Ray {
+    fn from(r: KdrayRay) -> Ray {
+        bytemuck::cast(r)
+    }
+}
+
+/// Opens the triangle-tree blob `blob[0..len]` into `*tree`, validating
+/// all of it (header, sections, checksum, the tree's structure): O(len),
+/// no allocation, no copy.
+///
+/// Returns `KDRAY_STATUS_OK`, or `KDRAY_STATUS_INVALID_BLOB` with the
+/// reason (what is wrong and where, e.g. "blob checksum mismatch: ...")
+/// written to `message`, or another status for a bad argument (its text,
+/// as `kdray_status_text` gives it, goes to `message`). On failure `*tree`
+/// is marked not open, so queries on it return `KDRAY_STATUS_NOT_OPEN`.
+///
+/// # Preconditions
+/// - `tree`: non-null, 8-byte aligned (any `KdrayTriangleTree` object is).
+/// - `blob`: non-null, 4-byte aligned (else `KDRAY_STATUS_INVALID_BLOB`,
+///   "misaligned"), pointing to `len` readable bytes that stay alive and
+///   unchanged for as long as `*tree` (or a copy of it) is used.
+/// - `message`: null, or `message_len` writable bytes; receives a
+///   NUL-terminated sentence, truncated to fit (`message_len` of 256 holds
+///   every message).
+///
+/// # Safety
+/// As the preconditions: the library cannot check that `len` bytes are
+/// readable or that the blob outlives the handle.
+#[no_mangle]
+pub unsafe extern "C" fn kdray_triangles_open(
+    tree: *mut KdrayTriangleTree,
+    blob: *const u8,
+    len: usize,
+    message: *mut c_char,
+    message_len: usize,
+) -> KdrayStatus {
+    let opened = (|| {
+        check_ptr(tree.cast_const())?;
+        // SAFETY: checked non-null and aligned; writable by the contract.
+        unsafe { handle::close(tree) };
+        // SAFETY: the blob's contract (`len` readable bytes).
+        let bytes = unsafe { blob_slice(blob, len) }?;
+        let t = TriangleTree::from_bytes(bytes).map_err(|e| {
+            // SAFETY: `message`'s contract.
+            unsafe { write_message(message, message_len, e) };
+            KdrayStatus::InvalidBlob
+        })?;
+        // SAFETY: checked above; the blob outlives the handle by contract.
+        unsafe { handle::store(tree, t) };
+        Ok(())
+    })();
+    finish_open(opened, message, message_len)
+}
+
+/// The blob as a slice, or why it cannot be one. Misalignment is left to
+/// the kernel's validation, which reports it as a blob error.
+///
+/// # Safety
+/// If `blob` is non-null, it points to `len` readable bytes that outlive
+/// the returned slice's uses.
+pub(crate) unsafe fn blob_slice(blob: *const u8, len: usize) -> Result<&'static [u8], KdrayStatus> {
+    check_ptr(blob)?;
+    check_count::<u8>(len)?;
+    // SAFETY: non-null, `len` readable bytes (the caller's contract), and
+    // `len <= isize::MAX`.
+    Ok(unsafe { core::slice::from_raw_parts(blob, len) })
+}
+
+/// Writes the status text for argument errors (the blob's own errors
+/// wrote their sentence already) and returns the status.
+pub(crate) fn finish_open(
+    r: Result<(), KdrayStatus>,
+    message: *mut c_char,
+    message_len: usize,
+) -> KdrayStatus {
+    let s = status(r);
+    if s != KdrayStatus::InvalidBlob {
+        let text = status_text(s as i32).to_str().unwrap_or("");
+        // SAFETY: `message`'s contract, as in the open functions.
+        unsafe { write_message(message, message_len, text) };
+    }
+    s
+}
+
+/// The closest hit of `*ray` in `*tree`, written to `*hit` (a miss record
+/// when nothing is hit): the smallest `t` in `[tnear, tfar]`, at equal `t`
+/// the lowest triangle index, bit for bit as the Rust API and brute force.
+///
+/// # Preconditions
+/// - `tree`: opened by `kdray_triangles_open` (else `KDRAY_STATUS_NOT_OPEN`),
+///   and its blob still alive and unchanged.
+/// - `ray`, `hit`: non-null and 4-byte aligned.
+///
+/// # Safety
+/// As the preconditions; `ray` and `hit` point to a whole record each.
+#[no_mangle]
+pub unsafe extern "C" fn kdray_closest_hit(
+    tree: *const KdrayTriangleTree,
+    ray: *const KdrayRay,
+    hit: *mut KdrayHit,
+) -> KdrayStatus {
+    status((|| {
+        // SAFETY: `tree`'s contract.
+        let t = unsafe { handle::load(tree) }?;
+        check_ptr(ray)?;
+        check_ptr(hit.cast_const())?;
+        // SAFETY: checked non-null and aligned; a whole record by contract.
+        let r = unsafe { ray.read() };
+        // SAFETY: as for `ray`.
+        unsafe { hit.write(t.closest_hit(&r.into()).into()) };
+        Ok(())
+    })())
+}
+
+/// Whether `*ray` hits any triangle of `*tree` in `[tnear, tfar]`:
+/// `*occluded` is 1 if so, else 0 (the shadow-ray query, Embree's
+/// `rtcOccluded1`; stops at the first hit found).
+///
+/// # Preconditions
+/// As `kdray_closest_hit`; `occluded` non-null and 4-byte aligned.
+///
+/// # Safety
+/// As the preconditions.
+#[no_mangle]
+pub unsafe extern "C" fn kdray_any_hit(
+    tree: *const KdrayTriangleTree,
+    ray: *const KdrayRay,
+    occluded: *mut i32,
+) -> KdrayStatus {
+    status((|| {
+        // SAFETY: `tree`'s contract.
+        let t = unsafe { handle::load(tree) }?;
+        check_ptr(ray)?;
+        check_ptr(occluded.cast_const())?;
+        // SAFETY: checked non-null and aligned; whole records by contract.
+        unsafe { occluded.write(i32::from(t.any_hit(&ray.read().into()))) };
+        Ok(())
+    })())
+}
+
+/// The kernel packet of `rays`' lanes whose `valid` entry is nonzero.
+fn packet<const N: usize>(valid: &[i32; N], rays: &KdrayRayN<N>) -> Packet<N> {
+    Packet {
+        origin: [rays.org_x, rays.org_y, rays.org_z],
+        dir: [rays.dir_x, rays.dir_y, rays.dir_z],
+        tmin: rays.tnear,
+        tmax: rays.tfar,
+        valid: valid.map(|v| v != 0),
+    }
+}
+
+/// Reads the valid mask and the packet, after checking every pointer.
+///
+/// # Safety
+/// Each pointer, if non-null and aligned, points to a whole readable object.
+unsafe fn read_packet<const N: usize>(
+    valid: *const [i32; N],
+    rays: *const KdrayRayN<N>,
+) -> Result<Packet<N>, KdrayStatus> {
+    check_ptr(valid)?;
+    check_ptr(rays)?;
+    // SAFETY: checked non-null and aligned; readable by the contract.
+    Ok(unsafe { packet(&valid.read(), &rays.read()) })
+}
+
+/// The body of `kdray_closest_hit4/8/16`.
+///
+/// # Safety
+/// As those functions.
+unsafe fn closest_packet<const N: usize>(
+    valid: *const [i32; N],
+    tree: *const KdrayTriangleTree,
+    rays: *const KdrayRayN<N>,
+    hits: *mut KdrayHitN<N>,
+    trace: impl Fn(&TriangleTree<'_>, &Packet<N>) -> [Hit; N],
+) -> KdrayStatus {
+    status((|| {
+        // SAFETY: the callers' contracts.
+        let t = unsafe { handle::load(tree) }?;
+        // SAFETY: the callers' contracts.
+        let p = unsafe { read_packet(valid, rays) }?;
+        check_ptr(hits.cast_const())?;
+        let h = trace(&t, &p);
+        let out = KdrayHitN {
+            t: h.map(|h| h.t),
+            prim_id: h.map(|h| h.prim),
+            u: h.map(|h| h.u),
+            v: h.map(|h| h.v),
+        };
+        // SAFETY: checked non-null and aligned; writable by the contract.
+        unsafe { hits.write(out) };
+        Ok(())
+    })())
+}
+
+/// The body of `kdray_any_hit4/8/16`.
+///
+/// # Safety
+/// As those functions.
+unsafe fn any_packet<const N: usize>(
+    valid: *const [i32; N],
+    tree: *const KdrayTriangleTree,
+    rays: *const KdrayRayN<N>,
+    occluded: *mut [i32; N],
+    trace: impl Fn(&TriangleTree<'_>, &Packet<N>) -> [bool; N],
+) -> KdrayStatus {
+    status((|| {
+        // SAFETY: the callers' contracts.
+        let t = unsafe { handle::load(tree) }?;
+        // SAFETY: the callers' contracts.
+        let p = unsafe { read_packet(valid, rays) }?;
+        check_ptr(occluded.cast_const())?;
+        // SAFETY: checked non-null and aligned; writable by the contract.
+        unsafe { occluded.write(trace(&t, &p).map(i32::from)) };
+        Ok(())
+    })())
+}
+
+/// The closest hits of a packet of 4 rays, lane by lane bit for bit as
+/// `kdray_closest_hit` on each lane's ray. Lanes whose `valid` entry is 0
+/// are not traced and get a miss record; any nonzero entry (Embree's -1,
+/// or 1) marks an active lane.
+///
+/// # Preconditions
+/// - `tree`: as `kdray_closest_hit`.
+/// - `valid`: non-null, 4-byte aligned, 4 entries.
+/// - `rays`, `hits`: non-null, 4-byte aligned, whole structs (Embree's
+///   16-byte alignment is welcome, not required).
+///
+/// # Safety
+/// As the preconditions.
+#[no_mangle]
+pub unsafe extern "C" fn kdray_closest_hit4(
+    valid: *const i32,
+    tree: *const KdrayTriangleTree,
+    rays: *const KdrayRay4,
+    hits: *mut KdrayHit4,
+) -> KdrayStatus {
+    // SAFETY: this function's contract.
+    unsafe { closest_packet(valid.cast(), tree, rays, hits, |t, p| t.closest_hit4(p)) }
+}
+
+/// `kdray_closest_hit4` for a packet of 8 rays (`valid` has 8 entries).
+///
+/// # Preconditions
+/// As `kdray_closest_hit4`, with 8 lanes.
+///
+/// # Safety
+/// As the preconditions.
+#[no_mangle]
+pub unsafe extern "C" fn kdray_closest_hit8(
+    valid: *const i32,
+    tree: *const KdrayTriangleTree,
+    rays: *const KdrayRay8,
+    hits: *mut KdrayHit8,
+) -> KdrayStatus {
+    // SAFETY: this function's contract.
+    unsafe { closest_packet(valid.cast(), tree, rays, hits, |t, p| t.closest_hit8(p)) }
+}
+
+/// `kdray_closest_hit4` for a packet of 16 rays (`valid` has 16 entries).
+///
+/// # Preconditions
+/// As `kdray_closest_hit4`, with 16 lanes.
+///
+/// # Safety
+/// As the preconditions.
+#[no_mangle]
+pub unsafe extern "C" fn kdray_closest_hit16(
+    valid: *const i32,
+    tree: *const KdrayTriangleTree,
+    rays: *const KdrayRay16,
+    hits: *mut KdrayHit16,
+) -> KdrayStatus {
+    // SAFETY: this function's contract.
+    unsafe { closest_packet(valid.cast(), tree, rays, hits, |t, p| t.closest_hit16(p)) }
+}
+
+/// Occlusion of a packet of 4 rays: `occluded[l]` is 1 if lane `l` hits
+/// anything, else 0 (0 for inactive lanes), as `kdray_any_hit` per lane.
+///
+/// # Preconditions
+/// As `kdray_closest_hit4`; `occluded`: non-null, 4-byte aligned, 4 entries.
+///
+/// # Safety
+/// As the preconditions.
+#[no_mangle]
+pub unsafe extern "C" fn kdray_any_hit4(
+    valid: *const i32,
+    tree: *const KdrayTriangleTree,
+    rays: *const KdrayRay4,
+    occluded: *mut i32,
+) -> KdrayStatus {
+    // SAFETY: this function's contract.
+    unsafe {
+        any_packet(valid.cast(), tree, rays, occluded.cast(), |t, p| {
+            t.any_hit4(p)
+        })
+    }
+}
+
+/// `kdray_any_hit4` for a packet of 8 rays.
+///
+/// # Preconditions
+/// As `kdray_any_hit4`, with 8 lanes.
+///
+/// # Safety
+/// As the preconditions.
+#[no_mangle]
+pub unsafe extern "C" fn kdray_any_hit8(
+    valid: *const i32,
+    tree: *const KdrayTriangleTree,
+    rays: *const KdrayRay8,
+    occluded: *mut i32,
+) -> KdrayStatus {
+    // SAFETY: this function's contract.
+    unsafe {
+        any_packet(valid.cast(), tree, rays, occluded.cast(), |t, p| {
+            t.any_hit8(p)
+        })
+    }
+}
+
+/// `kdray_any_hit4` for a packet of 16 rays.
+///
+/// # Preconditions
+/// As `kdray_any_hit4`, with 16 lanes.
+///
+/// # Safety
+/// As the preconditions.
+#[no_mangle]
+pub unsafe extern "C" fn kdray_any_hit16(
+    valid: *const i32,
+    tree: *const KdrayTriangleTree,
+    rays: *const KdrayRay16,
+    occluded: *mut i32,
+) -> KdrayStatus {
+    // SAFETY: this function's contract.
+    unsafe {
+        any_packet(valid.cast(), tree, rays, occluded.cast(), |t, p| {
+            t.any_hit16(p)
+        })
+    }
+}
+
+/// The closest hits of a stream of `count` rays: `hits[i]` is bit for bit
+/// `kdray_closest_hit` of `rays[i]`. The library groups consecutive rays
+/// into packets where their direction signs agree, so coherent streams
+/// (camera tiles in order) trace fastest.
+///
+/// # Preconditions
+/// - `tree`: as `kdray_closest_hit`.
+/// - `rays`, `hits`: non-null (even for `count == 0`), 4-byte aligned,
+///   `count` records each, not overlapping.
+///
+/// # Safety
+/// As the preconditions.
+#[no_mangle]
+pub unsafe extern "C" fn kdray_closest_hits(
+    tree: *const KdrayTriangleTree,
+    rays: *const KdrayRay,
+    hits: *mut KdrayHit,
+    count: usize,
+) -> KdrayStatus {
+    status((|| {
+        // SAFETY: `tree`'s contract.
+        let t = unsafe { handle::load(tree) }?;
+        check_ptr(rays)?;
+        check_ptr(hits.cast_const())?;
+        check_count::<KdrayRay>(count)?;
+        // SAFETY: non-null, aligned, `count` records by contract, the size
+        // fits a slice; KdrayRay is Ray's layout (asserted above) and Pod.
+        let rays = unsafe { core::slice::from_raw_parts(rays.cast::<Ray>(), count) };
+        // SAFETY: as for `rays`, writable and not overlapping by contract.
+        let hits = unsafe { core::slice::from_raw_parts_mut(hits.cast::<Hit>(), count) };
+        t.closest_hits(rays, hits);
+        Ok(())
+    })())
+}
+
+/// Occlusion of a stream of `count` rays: `occluded[i]` is 1 if `rays[i]`
+/// hits anything, else 0, as `kdray_any_hit` on each ray.
+///
+/// # Preconditions
+/// As `kdray_closest_hits`, with `occluded` holding `count` entries.
+///
+/// # Safety
+/// As the preconditions.
+#[no_mangle]
+pub unsafe extern "C" fn kdray_any_hits(
+    tree: *const KdrayTriangleTree,
+    rays: *const KdrayRay,
+    occluded: *mut i32,
+    count: usize,
+) -> KdrayStatus {
+    // The kernel answers in `bool`s; a chunk of them at a time keeps the
+    // caller's `int32_t`s out of Rust's `bool` type.
+    const CHUNK: usize = 64;
+    status((|| {
+        // SAFETY: `tree`'s contract.
+        let t = unsafe { handle::load(tree) }?;
+        check_ptr(rays)?;
+        check_ptr(occluded.cast_const())?;
+        check_count::<KdrayRay>(count)?;
+        // SAFETY: as in `kdray_closest_hits`.
+        let rays = unsafe { core::slice::from_raw_parts(rays.cast::<Ray>(), count) };
+        // SAFETY: as for `rays`, writable and not overlapping by contract.
+        let occluded = unsafe { core::slice::from_raw_parts_mut(occluded, count) };
+        let mut flags = [false; CHUNK];
+        for (rs, os) in rays.chunks(CHUNK).zip(occluded.chunks_mut(CHUNK)) {
+            t.any_hits(rs, &mut flags);
+            for (o, &f) in os.iter_mut().zip(&flags) {
+                *o = i32::from(f);
+            }
+        }
+        Ok(())
+    })())
+}

@@ -133,7 +133,12 @@ impl ShearedRay {
     #[inline(always)]
     #[must_use]
     pub fn intersect(&self, tri: &Triangle, tmin: f32, tmax: f32) -> Option<TriangleHit> {
-        let [kx, ky, kz] = self.k;
+        // Clamped as in leaf_lanes: the axes are below 3 by construction,
+        // but the optimiser cannot see it through the field, and a bounds
+        // check is a panic path (firmware/); the clamps are hoisted out of
+        // the leaf loop. Spelled out: at opt-level "s" a `map` closure is
+        // not inlined and the clamps are lost.
+        let [kx, ky, kz] = [self.k[0].min(2), self.k[1].min(2), self.k[2].min(2)];
         let [sx, sy, sz] = self.s;
         let org = [self.org[kx], self.org[ky], self.org[kz]];
         // Vertices relative to the origin, then sheared so the ray is +z.

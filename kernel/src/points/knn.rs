@@ -46,16 +46,24 @@ impl Accumulator for Knn<'_> {
             self.len += 1;
             self.len - 1
         };
-        // Shift the worse ones up one slot; j < k throughout.
+        // Shift the worse ones up one slot; j < k throughout. `get` and
+        // `get_mut`, not indices: the optimiser cannot see j < k, and an
+        // index would leave a panic path (firmware/).
         while j > 0 {
-            let prev = self.out[j - 1];
+            let Some(&prev) = self.out.get(j - 1) else {
+                break;
+            };
             if !Neighbour::precedes(d2, index, prev) {
                 break;
             }
-            self.out[j] = prev;
+            if let Some(slot) = self.out.get_mut(j) {
+                *slot = prev;
+            }
             j -= 1;
         }
-        self.out[j] = Neighbour { index, d2 };
+        if let Some(slot) = self.out.get_mut(j) {
+            *slot = Neighbour { index, d2 };
+        }
         if self.len == k {
             if let Some(last) = self.out.last() {
                 self.bound = last.d2;

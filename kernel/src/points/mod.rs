@@ -256,13 +256,21 @@ impl<'a> PointTree<'a> {
                     let a = axis.index();
                     // Below child's points at or below the split plane,
                     // above child's at or above it: the queries' plane
-                    // bound relies on it.
-                    let sides: [fn(&Bounds, usize, f32) -> bool; 2] =
-                        [|b, a, s| b.max[a] <= s, |b, a, s| b.min[a] >= s];
-                    for (c, on_side) in [child, child + 1].into_iter().zip(sides) {
+                    // bound relies on it. (A direct test, not a table of
+                    // function pointers: an indirect call has no static
+                    // stack bound, and `get` because through one `a < 3`
+                    // is not seen and an index is a panic path; firmware/.)
+                    let on_side = |b: &Bounds, above: bool| {
+                        if above {
+                            b.min.get(a).is_some_and(|&m| m >= split)
+                        } else {
+                            b.max.get(a).is_some_and(|&m| m <= split)
+                        }
+                    };
+                    for (c, above) in [(child, false), (child + 1, true)] {
                         let inner = bounds.get(c as usize);
                         if !inner
-                            .is_some_and(|b| b.is_valid() && nests(b, own) && on_side(b, a, split))
+                            .is_some_and(|b| b.is_valid() && nests(b, own) && on_side(b, above))
                         {
                             return Err(BlobError::BadNodeBounds { node: c });
                         }

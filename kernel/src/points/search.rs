@@ -73,7 +73,11 @@ impl PointTree<'_> {
             // within the bound (the tight box prunes empty space).
             while len > 0 {
                 len -= 1;
-                let (far, far_d) = stack[len];
+                // `get`: `len` counts pushed entries, but an index would
+                // leave a panic path the optimiser cannot remove (firmware/).
+                let Some(&(far, far_d)) = stack.get(len) else {
+                    return;
+                };
                 if far_d > acc.bound() {
                     continue;
                 }

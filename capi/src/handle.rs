@@ -6,8 +6,10 @@
 //! whose open failed) is refused with `KDRAY_STATUS_NOT_OPEN` instead of
 //! being read.
 
-use crate::{check_ptr, KdrayStatus};
-use kdray_kernel::{PointTree, TriangleTree};
+use crate::message::write_message;
+use crate::{check_count, check_ptr, status, status_text, KdrayStatus};
+use core::ffi::c_char;
+use kdray_kernel::{BlobError, PointTree, TriangleTree};
 
 /// The size of a tree handle in 64-bit words (room for the kernel's tree
 /// view on 64-bit targets, with space to grow).
@@ -48,16 +50,24 @@ pub(crate) trait Handle: Sized {
     type Tree: Copy;
     /// The tag word of an opened handle of this kind (ASCII, so a dump reads it).
     const TAG: u64;
+    /// The kernel's validating loader for this kind.
+    fn from_bytes(bytes: &'static [u8]) -> Result<Self::Tree, BlobError>;
 }
 
 impl Handle for KdrayTriangleTree {
     type Tree = TriangleTree<'static>;
     const TAG: u64 = u64::from_le_bytes(*b"kdrayTRI");
+    fn from_bytes(bytes: &'static [u8]) -> Result<Self::Tree, BlobError> {
+        TriangleTree::from_bytes(bytes)
+    }
 }
 
 impl Handle for KdrayPointTree {
     type Tree = PointTree<'static>;
     const TAG: u64 = u64::from_le_bytes(*b"kdrayPTS");
+    fn from_bytes(bytes: &'static [u8]) -> Result<Self::Tree, BlobError> {
+        PointTree::from_bytes(bytes)
+    }
 }
 
 // Each view fits its handle, and the handle's alignment suffices.
@@ -74,7 +84,7 @@ const _: () = {
 ///
 /// # Safety
 /// `handle` is non-null, aligned, and points to a writable `H`.
-pub(crate) unsafe fn close<H: Handle>(handle: *mut H) {
+unsafe fn close<H: Handle>(handle: *mut H) {
     // SAFETY: the caller's contract; the tag is the handle's first word.
     unsafe { handle.cast::<u64>().write(0) };
 }
@@ -85,7 +95,7 @@ pub(crate) unsafe fn close<H: Handle>(handle: *mut H) {
 /// `handle` is non-null, aligned, and points to a writable `H`; the bytes
 /// `tree` borrows stay alive and unchanged while the handle is used (the
 /// open functions' precondition, which is why `'static` is acceptable).
-pub(crate) unsafe fn store<H: Handle>(handle: *mut H, tree: H::Tree) {
+unsafe fn store<H: Handle>(handle: *mut H, tree: H::Tree) {
     let tagged = Tagged { tag: H::TAG, tree };
     // SAFETY: `Tagged<H::Tree>` fits in `H` with no stricter alignment
     // (checked at compile time above), and `handle` is writable.
@@ -108,4 +118,55 @@ pub(crate) unsafe fn load<H: Handle>(handle: *const H) -> Result<H::Tree, KdrayS
     }
     // SAFETY: the tag says `store` wrote a `Tagged<H::Tree>` here.
     Ok(unsafe { handle.cast::<Tagged<H::Tree>>().read().tree })
+}
+
+/// The body of the open functions: validates `blob[0..len]` into
+/// `*handle`, or marks it not open and writes why to `message`
+/// (`BlobError`'s sentence, or the status text for a bad argument).
+///
+/// # Safety
+/// As `kdray_triangles_open`'s preconditions.
+pub(crate) unsafe fn open<H: Handle>(
+    handle: *mut H,
+    blob: *const u8,
+    len: usize,
+    message: *mut c_char,
+    message_len: usize,
+) -> KdrayStatus {
+    let opened = (|| {
+        check_ptr(handle.cast_const())?;
+        // SAFETY: checked non-null and aligned; writable by the contract.
+        unsafe { close(handle) };
+        // SAFETY: the blob's contract (`len` readable bytes).
+        let bytes = unsafe { blob_slice(blob, len) }?;
+        let tree = H::from_bytes(bytes).map_err(|e| {
+            // SAFETY: `message`'s contract.
+            unsafe { write_message(message, message_len, e) };
+            KdrayStatus::InvalidBlob
+        })?;
+        // SAFETY: checked above; the blob outlives the handle by contract.
+        unsafe { store(handle, tree) };
+        Ok(())
+    })();
+    let s = status(opened);
+    if s != KdrayStatus::InvalidBlob {
+        let text = status_text(s as i32).to_str().unwrap_or("");
+        // SAFETY: `message`'s contract.
+        unsafe { write_message(message, message_len, text) };
+    }
+    s
+}
+
+/// The blob as a slice, or why it cannot be one. Misalignment is left to
+/// the kernel's validation, which reports it as a blob error.
+///
+/// # Safety
+/// If `blob` is non-null, it points to `len` readable bytes that outlive
+/// the returned slice's uses.
+unsafe fn blob_slice(blob: *const u8, len: usize) -> Result<&'static [u8], KdrayStatus> {
+    check_ptr(blob)?;
+    check_count::<u8>(len)?;
+    // SAFETY: non-null, `len` readable bytes (the caller's contract), and
+    // `len <= isize::MAX`.
+    Ok(unsafe { core::slice::from_raw_parts(blob, len) })
 }

@@ -4,12 +4,10 @@
 //! scalar type is a new handle kind and four more functions of this shape.
 
 use crate::handle::{self, KdrayPointTree};
-use crate::message::write_message;
-use crate::rays::{blob_slice, finish_open};
 use crate::{check_count, check_ptr, status, KdrayStatus};
 use bytemuck::{Pod, Zeroable};
 use core::ffi::c_char;
-use kdray_kernel::{Neighbour, PointTree};
+use kdray_kernel::Neighbour;
 
 /// One neighbour: 8 bytes, the record of a `.knn` file. A missing
 /// neighbour (fewer points than asked for) is `index = 0xFFFFFFFF`,
@@ -43,22 +41,8 @@ pub unsafe extern "C" fn kdray_points_open(
     message: *mut c_char,
     message_len: usize,
 ) -> KdrayStatus {
-    let opened = (|| {
-        check_ptr(tree.cast_const())?;
-        // SAFETY: checked non-null and aligned; writable by the contract.
-        unsafe { handle::close(tree) };
-        // SAFETY: the blob's contract (`len` readable bytes).
-        let bytes = unsafe { blob_slice(blob, len) }?;
-        let t = PointTree::from_bytes(bytes).map_err(|e| {
-            // SAFETY: `message`'s contract.
-            unsafe { write_message(message, message_len, e) };
-            KdrayStatus::InvalidBlob
-        })?;
-        // SAFETY: checked above; the blob outlives the handle by contract.
-        unsafe { handle::store(tree, t) };
-        Ok(())
-    })();
-    finish_open(opened, message, message_len)
+    // SAFETY: this function's contract.
+    unsafe { handle::open(tree, blob, len, message, message_len) }
 }
 
 /// Reads a query point after checking its pointer.

@@ -3,8 +3,7 @@
 //! `rtcIntersect4/8/16`), or a stream of N rays.
 
 use crate::handle::{self, KdrayTriangleTree};
-use crate::message::write_message;
-use crate::{check_count, check_ptr, status, status_text, KdrayStatus};
+use crate::{check_count, check_ptr, status, KdrayStatus};
 use bytemuck::{Pod, Zeroable};
 use core::ffi::c_char;
 use kdray_kernel::{Hit, Packet, Ray, TriangleTree};
@@ -170,52 +169,8 @@ pub unsafe extern "C" fn kdray_triangles_open(
     message: *mut c_char,
     message_len: usize,
 ) -> KdrayStatus {
-    let opened = (|| {
-        check_ptr(tree.cast_const())?;
-        // SAFETY: checked non-null and aligned; writable by the contract.
-        unsafe { handle::close(tree) };
-        // SAFETY: the blob's contract (`len` readable bytes).
-        let bytes = unsafe { blob_slice(blob, len) }?;
-        let t = TriangleTree::from_bytes(bytes).map_err(|e| {
-            // SAFETY: `message`'s contract.
-            unsafe { write_message(message, message_len, e) };
-            KdrayStatus::InvalidBlob
-        })?;
-        // SAFETY: checked above; the blob outlives the handle by contract.
-        unsafe { handle::store(tree, t) };
-        Ok(())
-    })();
-    finish_open(opened, message, message_len)
-}
-
-/// The blob as a slice, or why it cannot be one. Misalignment is left to
-/// the kernel's validation, which reports it as a blob error.
-///
-/// # Safety
-/// If `blob` is non-null, it points to `len` readable bytes that outlive
-/// the returned slice's uses.
-pub(crate) unsafe fn blob_slice(blob: *const u8, len: usize) -> Result<&'static [u8], KdrayStatus> {
-    check_ptr(blob)?;
-    check_count::<u8>(len)?;
-    // SAFETY: non-null, `len` readable bytes (the caller's contract), and
-    // `len <= isize::MAX`.
-    Ok(unsafe { core::slice::from_raw_parts(blob, len) })
-}
-
-/// Writes the status text for argument errors (the blob's own errors
-/// wrote their sentence already) and returns the status.
-pub(crate) fn finish_open(
-    r: Result<(), KdrayStatus>,
-    message: *mut c_char,
-    message_len: usize,
-) -> KdrayStatus {
-    let s = status(r);
-    if s != KdrayStatus::InvalidBlob {
-        let text = status_text(s as i32).to_str().unwrap_or("");
-        // SAFETY: `message`'s contract, as in the open functions.
-        unsafe { write_message(message, message_len, text) };
-    }
-    s
+    // SAFETY: this function's contract.
+    unsafe { handle::open(tree, blob, len, message, message_len) }
 }
 
 /// The closest hit of `*ray` in `*tree`, written to `*hit` (a miss record

@@ -6,8 +6,8 @@ extern crate std;
 
 use crate::*;
 use bytemuck::Zeroable;
+use core::ffi::CStr;
 use kdray_kernel::{include_aligned, Hit, Neighbour, PointTree, Ray, TriangleTree};
-use std::ffi::CStr;
 use std::string::ToString;
 use std::vec::Vec;
 

@@ -23,48 +23,13 @@
 //! Only the accessors below apply masks and only [`Node::interior`] and
 //! [`Node::leaf`] write fields, so a node is never half-built.
 
+use crate::geometry::Axis;
 use bytemuck::{Pod, Zeroable};
 
 /// The largest child index or primitive count a node can hold (30 bits).
 pub const MAX_NODE_FIELD: u32 = (1 << 30) - 1;
 
 const LEAF_TAG: u32 = 3;
-
-/// A split axis.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-#[repr(u8)]
-pub enum Axis {
-    /// The x axis.
-    X = 0,
-    /// The y axis.
-    Y = 1,
-    /// The z axis.
-    Z = 2,
-}
-
-impl Axis {
-    /// The three axes in order.
-    pub const ALL: [Axis; 3] = [Axis::X, Axis::Y, Axis::Z];
-
-    /// The axis as an index 0, 1 or 2 into a coordinate array.
-    #[inline]
-    #[must_use]
-    pub const fn index(self) -> usize {
-        self as usize
-    }
-
-    /// The axis with index `i` (0, 1 or 2), if any.
-    #[inline]
-    #[must_use]
-    pub const fn from_index(i: usize) -> Option<Axis> {
-        match i {
-            0 => Some(Axis::X),
-            1 => Some(Axis::Y),
-            2 => Some(Axis::Z),
-            _ => None,
-        }
-    }
-}
 
 /// One node of a k-d tree: an interior split or a leaf (see the module docs).
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Pod, Zeroable)]

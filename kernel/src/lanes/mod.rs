@@ -10,8 +10,11 @@
 //! control flow reads them as bitmasks (bit `l` = lane `l`), one per
 //! decision.
 
-use crate::ray::Ray;
-use crate::traverse::Span;
+mod span;
+
+pub(crate) use span::Span;
+
+use crate::geometry::Ray;
 use core::ops::{BitAnd, BitOr, Div, Mul};
 use wide::{f32x16, f32x4, f32x8, i32x16, i32x4, i32x8};
 

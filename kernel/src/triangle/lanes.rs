@@ -5,10 +5,8 @@
 //! Lanes whose `f32` edge function is exactly zero are recomputed by the
 //! scalar [`edge_functions_f64`], as the single ray does.
 
-use super::lane_rays::LaneRays;
-use super::lanes::Lanes;
-use crate::node::Axis;
-use crate::triangle::{edge_functions_f64, Triangle};
+use super::edge_functions_f64;
+use crate::lanes::Lanes;
 
 /// The lanes a triangle hits, with the unreduced hit of each lane.
 pub(crate) struct LaneHits<V> {
@@ -22,49 +20,6 @@ pub(crate) struct LaneHits<V> {
     pub(crate) w: V,
     /// Each lane's determinant (the sum of the three edge functions).
     pub(crate) det: V,
-}
-
-impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
-    /// Vertex `p` relative to each lane's origin, sheared so the lane's
-    /// ray runs along +z: `(q[kx] - sx q[kz], q[ky] - sy q[kz], q[kz])`;
-    /// `k` is [`LaneRays::k_uniform`], passed in by value so that a leaf's
-    /// loop keeps it in registers (read through `self` it was reloaded,
-    /// with its discriminant, for every coordinate of every triangle).
-    /// `p` is read in place (a copy indexed by the permuted axes would be
-    /// spilled and reloaded across its stores).
-    #[inline(always)]
-    fn shear_vertex(&self, k: Option<[Axis; 3]>, p: &[f32; 3]) -> (V, V, V) {
-        // p[k[j]] per lane; the subtraction is then the scalar q[k[j]].
-        let pk = |j: usize| match k {
-            // An `Axis` is below 3, as the compiler knows: no bounds check,
-            // and the fallback is never taken.
-            Some(k) => V::splat(p.get(k[j].index()).copied().unwrap_or(f32::NAN)),
-            None => {
-                let [is0, is1] = self.k_is[j];
-                let [x, y, z] = p.map(V::splat);
-                V::select(is0, x, V::select(is1, y, z))
-            }
-        };
-        let qx = pk(0) - self.org_k[0];
-        let qy = pk(1) - self.org_k[1];
-        let qz = pk(2) - self.org_k[2];
-        (qx - self.shear[0] * qz, qy - self.shear[1] * qz, qz)
-    }
-
-    /// Tests `tri` against the lanes in `live` over each lane's
-    /// `[tmin, tmax]`; `None` when it hits none of them. `k` is
-    /// [`LaneRays::k_uniform`].
-    #[inline(always)]
-    pub(crate) fn intersect(
-        &self,
-        k: Option<[Axis; 3]>,
-        tri: &Triangle,
-        live: u32,
-        tmax: V,
-    ) -> Option<LaneHits<V>> {
-        let [a, b, c] = tri.v.each_ref().map(|p| self.shear_vertex(k, p));
-        watertight(a, b, c, self.shear[2], live, self.tmin, tmax)
-    }
 }
 
 /// The watertight test's arithmetic after the shear, lane by lane: the

@@ -130,3 +130,14 @@ impl Hit {
         bytemuck::cast(*self)
     }
 }
+
+/// Does `ray` describe a non-empty interval along a real direction?
+/// Rays that fail this hit nothing (the documented NaN policy).
+#[inline]
+#[must_use]
+pub fn ray_is_valid(ray: &Ray) -> bool {
+    ray.origin.iter().all(|c| c.is_finite())
+        && ray.dir.iter().all(|c| c.is_finite())
+        && ray.dir.iter().any(|&c| c != 0.0)
+        && ray.tmin <= ray.tmax
+}

@@ -16,12 +16,11 @@
 //! lane `min`/`max` pick either of two equal operands): the walk only
 //! compares them, where `-0 == +0`.
 
-use super::lanes::Lanes;
+use super::super::cell_ray::{CellRay, SLACK};
 use super::Packet;
-use crate::node::{Axis, Node};
-use crate::ray::Ray;
-use crate::traverse::{CellRay, SLACK};
-use crate::tree::Bounds;
+use crate::blob::Node;
+use crate::geometry::{Axis, Bounds, Ray};
+use crate::lanes::Lanes;
 use crate::triangle::ShearedRay;
 
 /// Packet rays in lanes (structure of arrays).

@@ -25,7 +25,8 @@
 //! zero, so it covers the header's counts and bounds too; fast enough to
 //! verify on every load.
 
-use crate::error::BlobError;
+use super::error::BlobError;
+use super::MAX_DEPTH;
 use bytemuck::{Pod, Zeroable};
 
 /// The first 8 bytes of every blob.
@@ -90,11 +91,11 @@ impl Header {
     /// Checks that the header's max depth fits the traversal stack
     /// (unchecked loading, O(1)).
     pub(crate) fn depth_fits_stack(&self) -> Result<(), BlobError> {
-        if self.max_depth > crate::MAX_DEPTH {
+        if self.max_depth > MAX_DEPTH {
             return Err(BlobError::TooDeep {
                 node: 0,
                 depth: self.max_depth,
-                max: crate::MAX_DEPTH,
+                max: MAX_DEPTH,
             });
         }
         Ok(())
@@ -237,7 +238,7 @@ pub(crate) fn verify_checksum(header: &Header, blob: &[u8]) -> Result<(), BlobEr
 ///
 /// ```
 /// static SCENE: &kdray_kernel::Aligned<[u8]> =
-///     kdray_kernel::include_aligned!("../golden/cube-v1.kdt");
+///     kdray_kernel::include_aligned!("../../golden/cube-v1.kdt");
 /// let tree = kdray_kernel::TriangleTree::from_bytes(&SCENE.bytes)?;
 /// // Read in place: the tree's triangles are the blob's bytes.
 /// assert_eq!(tree.triangles().as_ptr().cast::<u8>(), SCENE.bytes[SCENE.bytes.len() - 14 * 36..].as_ptr());

@@ -21,293 +21,16 @@
 //! stays on one side) or NaN (origin exactly on the plane: NaN fails both
 //! tests, so both children are visited over the whole interval).
 //!
-//! # Exactness
-//! The answer must be the brute-force answer bit for bit, yet `t_split`
-//! and the triangle's `t` are rounded. So every cell interval is widened by
-//! a slack `s` = [`SLACK`] × (the ray's extent through the scene bounds),
-//! far above the few ulps of rounding in either: a cell is skipped only when
-//! its interval misses the current `[t_min, t_max]` by more than `s`, and a
-//! far cell popped after a hit is skipped only when it starts more than `s`
-//! beyond the best hit. Triangles are always tested against the ray's own
-//! `[tmin, best t]`, never the cell's, so a triangle referenced by several
-//! leaves gives the same answer in each, and a hit beyond the current cell
-//! never ends the search early. The cost is a few extra cells within
-//! `s` of a hit: nothing measurable.
 
-use crate::leaf_lanes::{self, LANE_LEAF_MIN};
-use crate::node::Node;
-use crate::ray::{Hit, Ray, MISS};
-use crate::tree::{Bounds, LeafPrims, TriangleTree, MAX_DEPTH};
-use crate::triangle::{ShearedRay, Triangle, TriangleHit};
+use super::cell_ray::CellRay;
+use super::counts::{Tally, TraversalCounts};
+use super::leaf_lanes::{self, LANE_LEAF_MIN};
+use super::{LeafPrims, TriangleTree};
+use crate::blob::MAX_DEPTH;
+use crate::geometry::{Hit, Ray};
+use crate::lanes::Span;
+use crate::triangle::{Closest, ShearedRay, Triangle};
 use core::mem::MaybeUninit;
-
-/// The cell slack relative to the ray's extent through the scene
-/// (2^-18 ≈ 3.8e-6, about 32 ulps of the largest `t` in the scene).
-pub const SLACK: f32 = 1.0 / 262_144.0;
-
-/// The running closest hit: smallest `t`, then lowest triangle index. The
-/// one rule shared by the tree, the packets and brute force.
-#[derive(Clone, Copy, Debug)]
-pub struct Closest {
-    /// The best `t` so far (the ray's `tmax` before any hit): the upper end
-    /// of the interval later triangles are tested over.
-    pub t: f32,
-    /// The best triangle so far, [`MISS`] before any hit.
-    pub prim: u32,
-    hit: Option<TriangleHit>,
-}
-
-impl Closest {
-    /// Nothing found yet over `[.., tmax]`.
-    #[inline(always)]
-    #[must_use]
-    pub fn new(tmax: f32) -> Closest {
-        Closest {
-            t: tmax,
-            prim: MISS,
-            hit: None,
-        }
-    }
-
-    /// Tests triangle `prim` and keeps it if it wins.
-    #[inline(always)]
-    pub fn offer(&mut self, sr: &ShearedRay, tri: &Triangle, prim: u32, tmin: f32) {
-        if let Some(h) = sr.intersect(tri, tmin, self.t) {
-            self.keep(h, prim);
-        }
-    }
-
-    /// Keeps hit `h` of triangle `prim` if it wins; `h` was found over
-    /// `[tmin, self.t]` (packet lanes call this with their own test's hits).
-    #[inline(always)]
-    pub(crate) fn keep(&mut self, h: TriangleHit, prim: u32) {
-        // h.t <= self.t here, so equal t is the only other case.
-        if h.t < self.t || prim < self.prim {
-            self.t = h.t;
-            self.prim = prim;
-            self.hit = Some(h);
-        }
-    }
-
-    /// The answer.
-    #[inline]
-    #[must_use]
-    pub fn hit(&self) -> Hit {
-        match self.hit {
-            Some(h) => h.to_hit(self.prim),
-            None => Hit::MISS,
-        }
-    }
-}
-
-/// A ray clipped to the scene bounds, ready for the traversal loop.
-#[derive(Clone, Copy, Debug)]
-pub struct CellRay {
-    /// The origin.
-    pub org: [f32; 3],
-    /// `1/dir`, `±inf` for a zero component (sign kept), NaN for a
-    /// component whose inverse overflows (`new`).
-    pub inv: [f32; 3],
-    /// 1 where the ray enters the above child first (`inv < 0`), else 0.
-    pub above_first: [u32; 3],
-    /// The same three bits (x in bit 0) repeated in each nibble, the form
-    /// `Node::first_child` takes.
-    pub(crate) above_first_nibbles: u64,
-    /// The widened interval over the root cell.
-    pub t0: f32,
-    /// End of the widened interval over the root cell.
-    pub t1: f32,
-    /// The slack `s` (module docs).
-    pub slack: f32,
-}
-
-impl CellRay {
-    /// Clips `ray` to `bounds` (slab test), widening by the slack.
-    /// `None` when the ray misses the box or is invalid.
-    #[inline(always)]
-    #[must_use]
-    pub fn new(ray: &Ray, sr: &ShearedRay, bounds: &Bounds) -> Option<CellRay> {
-        let org = ray.origin;
-        // Whole arrays, not element stores in the loop: those were spilled
-        // one lane at a time and reloaded whole, a store-forwarding stall
-        // per ray (measured: ~4% of a camera-ray trace).
-        let inv = ray.dir.map(|d| 1.0 / d);
-        let above_first = inv.map(|i| u32::from(i < 0.0));
-        let (mut enter, mut exit) = (f32::NEG_INFINITY, f32::INFINITY);
-        let mut nearly_parallel = false;
-        for a in 0..3 {
-            if inv[a].is_infinite() {
-                if ray.dir[a] != 0.0 {
-                    // |d| so small that 1/d overflows (< 2^-128) is not
-                    // parallel: the ray still crosses this axis's planes,
-                    // at t = (p - o) / d, which is any size (t = -1 for an
-                    // origin and a direction of the same subnormal size; a
-                    // proptest found the ray skipping the cell of its
-                    // hit). Its slab clips nothing, and its inverse
-                    // becomes NaN below.
-                    nearly_parallel = true;
-                    continue;
-                }
-                // Parallel to this slab (d = ±0): inside it for all t, or
-                // never. (Taking the slab test here would compute
-                // 0 * inf = NaN for an origin on a face.)
-                if org[a] < bounds.min[a] || org[a] > bounds.max[a] {
-                    return None;
-                }
-                continue;
-            }
-            let ta = (bounds.min[a] - org[a]) * inv[a];
-            let tb = (bounds.max[a] - org[a]) * inv[a];
-            // ta and tb are never NaN (finite inv, finite coordinates):
-            // plain selects, not f32::min/max's NaN handling.
-            enter = Span::max(enter, Span::min(ta, tb));
-            exit = Span::min(exit, Span::max(ta, tb));
-        }
-        // A NaN inverse makes every split plane on a nearly parallel axis
-        // visit both children over the whole interval (NaN t_split),
-        // written only on this rare branch (a select per component on
-        // every ray, or a store into `inv` in the loop, measured no
-        // cheaper: camera rays 1.6-2% slower than before the fix either
-        // way).
-        let inv = if nearly_parallel {
-            core::array::from_fn(|a| {
-                let tiny = inv[a].is_infinite() && ray.dir[a] != 0.0;
-                if tiny {
-                    f32::NAN
-                } else {
-                    inv[a]
-                }
-            })
-        } else {
-            inv
-        };
-        // Slack from the ray's extent through the scene along its dominant
-        // axis, which bounds every t the scene's triangles can produce.
-        let kz = sr.k[2];
-        let zmax = (bounds.min[kz] - org[kz])
-            .abs()
-            .max((bounds.max[kz] - org[kz]).abs())
-            * inv[kz].abs();
-        // No finite extent (the dominant component's inverse overflowed
-        // too): an infinite slack, every cell visited over every t.
-        let slack = SLACK * zmax;
-        let slack = if slack.is_nan() { f32::INFINITY } else { slack };
-        let t0 = ray.tmin.max(enter) - slack;
-        let t1 = ray.tmax.min(exit) + slack;
-        if t0 <= t1 {
-            Some(CellRay {
-                org,
-                inv,
-                above_first,
-                above_first_nibbles: Node::first_child_mask(above_first),
-                t0,
-                t1,
-                slack,
-            })
-        } else {
-            None
-        }
-    }
-}
-
-impl CellRay {
-    /// The root cell's interval as the walk keeps intervals: widened by
-    /// the slack once more, `[lo, hi] = [t0 - s, t1 + s]` (the slack rule).
-    #[inline(always)]
-    #[must_use]
-    pub fn start(&self) -> (f32, f32) {
-        (self.t0 - self.slack, self.t1 + self.slack)
-    }
-}
-
-/// The slack rule's interval arithmetic, written once for a single ray
-/// (`f32`) and for packet lanes (one `f32` per lane): intervals are kept
-/// pre-widened, `[lo, hi] = [t0 - s, t1 + s]`, so the visit tests compare
-/// `t_split` as computed (`t_split < lo`: near child skipped,
-/// `t_split > hi`: far child skipped) and each new end moves by `2s`.
-pub(crate) trait Span:
-    Copy + core::ops::Add<Output = Self> + core::ops::Sub<Output = Self>
-{
-    /// The smaller of the two; a NaN `rhs` keeps `self` (`self` is never NaN).
-    fn min(self, rhs: Self) -> Self;
-    /// The larger of the two; a NaN `rhs` keeps `self` (`self` is never NaN).
-    fn max(self, rhs: Self) -> Self;
-
-    /// The near child's interval end: its cell ends at the plane.
-    #[inline(always)]
-    fn near_hi(self, t_split: Self, s2: Self) -> Self {
-        self.min(t_split + s2)
-    }
-
-    /// The far child's interval start: its cell starts at the plane.
-    #[inline(always)]
-    fn far_lo(self, t_split: Self, s2: Self) -> Self {
-        self.max(t_split - s2)
-    }
-
-    /// Cells whose `lo` lies beyond this (the best hit `self` plus the
-    /// slack, widened by the slack) cannot hold a better hit.
-    #[inline(always)]
-    fn cutoff(self, s2: Self) -> Self {
-        self + s2
-    }
-}
-
-/// Plain selects: the walk's `lo` and `hi` are never NaN and a NaN `rhs`
-/// keeps them, which is all of `f32::min`/`max`'s NaN rule the walk needs
-/// (those spend three instructions on the rest).
-impl Span for f32 {
-    #[inline(always)]
-    fn min(self, rhs: f32) -> f32 {
-        if rhs < self {
-            rhs
-        } else {
-            self
-        }
-    }
-    #[inline(always)]
-    fn max(self, rhs: f32) -> f32 {
-        if rhs > self {
-            rhs
-        } else {
-            self
-        }
-    }
-}
-
-/// The work one traversal did: what a heatmap shows and a cost model predicts.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct TraversalCounts {
-    /// Nodes visited, interior and leaf.
-    pub nodes: u32,
-    /// Ray/triangle tests run.
-    pub triangles: u32,
-}
-
-/// Counts traversal work; `()` counts nothing and compiles away.
-pub(crate) trait Tally {
-    fn node(&mut self);
-    fn triangles(&mut self, n: usize);
-}
-
-impl Tally for () {
-    #[inline(always)]
-    fn node(&mut self) {}
-    #[inline(always)]
-    fn triangles(&mut self, _: usize) {}
-}
-
-impl Tally for TraversalCounts {
-    #[inline(always)]
-    fn node(&mut self) {
-        self.nodes = self.nodes.saturating_add(1);
-    }
-    #[inline(always)]
-    fn triangles(&mut self, n: usize) {
-        let n = u32::try_from(n).unwrap_or(u32::MAX);
-        self.triangles = self.triangles.saturating_add(n);
-    }
-}
 
 /// A far child waiting on the stack with its interval.
 #[derive(Clone, Copy, Debug)]
@@ -419,7 +142,7 @@ impl<'a> TriangleTree<'a> {
     /// use glam::Vec3;
     /// use kdray_kernel::{closest_hit_brute, Hit, Ray, TriangleTree};
     /// static CUBE: &kdray_kernel::Aligned<[u8]> =
-    ///     kdray_kernel::include_aligned!("../golden/cube-v1.kdt");
+    ///     kdray_kernel::include_aligned!("../../golden/cube-v1.kdt");
     /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
     ///
     /// // From below the cube, straight up: the floor at t = 1.
@@ -496,7 +219,7 @@ impl<'a> TriangleTree<'a> {
     /// use glam::Vec3;
     /// use kdray_kernel::{Ray, TriangleTree};
     /// static CUBE: &kdray_kernel::Aligned<[u8]> =
-    ///     kdray_kernel::include_aligned!("../golden/cube-v1.kdt");
+    ///     kdray_kernel::include_aligned!("../../golden/cube-v1.kdt");
     /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
     ///
     /// // A shadow ray from a point inside the cube to a light outside it:
@@ -703,7 +426,8 @@ mod tests {
     //! checks the uninitialised traversal stack): `cargo +nightly miri test
     //! -p kdray-kernel traverse`.
     use super::*;
-    use crate::node::{Axis, Node};
+    use crate::blob::Node;
+    use crate::geometry::{Axis, Bounds};
     use crate::triangle::{any_hit_brute, closest_hit_brute};
 
     #[test]

@@ -28,16 +28,15 @@
 //! answer). Packets whose rays disagree on a direction sign are traced
 //! ray by ray: they would not walk together anyway.
 
-pub(crate) mod intersect;
+mod intersect;
 mod lane_rays;
-pub(crate) mod lanes;
 mod walk;
 
-use crate::ray::{Hit, Ray};
-use crate::tree::TriangleTree;
+use super::TriangleTree;
+use crate::geometry::{Hit, Ray};
+use crate::lanes::Lanes;
 use glam::Vec3;
 use lane_rays::LaneRays;
-use lanes::Lanes;
 use walk::LaneStack;
 use wide::{f32x16, f32x4, f32x8};
 
@@ -188,7 +187,7 @@ impl<'a> TriangleTree<'a> {
     /// use glam::Vec3;
     /// use kdray_kernel::{Packet4, TriangleTree};
     /// static CUBE: &kdray_kernel::Aligned<[u8]> =
-    ///     kdray_kernel::include_aligned!("../../golden/cube-v1.kdt");
+    ///     kdray_kernel::include_aligned!("../../../golden/cube-v1.kdt");
     /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
     ///
     /// // A 2x2 bundle of parallel rays from below the cube.
@@ -310,7 +309,7 @@ impl<'a> TriangleTree<'a> {
     /// use glam::Vec3;
     /// use kdray_kernel::{Hit, Ray, TriangleTree};
     /// static CUBE: &kdray_kernel::Aligned<[u8]> =
-    ///     kdray_kernel::include_aligned!("../../golden/cube-v1.kdt");
+    ///     kdray_kernel::include_aligned!("../../../golden/cube-v1.kdt");
     /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
     ///
     /// // 11 rays fanning out from inside the cube: a packet of 8, then one of 3.

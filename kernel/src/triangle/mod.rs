@@ -14,7 +14,14 @@
 //! packets and the brute-force oracle all call it (or its lane-wise twin,
 //! which performs the same operations in the same order).
 
-use crate::ray::{Hit, Ray};
+mod brute;
+mod closest;
+pub(crate) mod lanes;
+
+pub use brute::{any_hit_brute, closest_hit_brute};
+pub(crate) use closest::Closest;
+
+use crate::geometry::{ray_is_valid, Hit, Ray};
 use bytemuck::{Pod, Zeroable};
 
 /// A triangle: three vertices. `repr(C)`, Pod, 36 bytes; the blob stores
@@ -40,7 +47,7 @@ impl Triangle {
 /// A ray prepared for the watertight test: its origin, the axis permutation
 /// that makes z the dominant direction axis, and the shear constants.
 #[derive(Clone, Copy, Debug)]
-pub struct ShearedRay {
+pub(crate) struct ShearedRay {
     /// The ray origin.
     pub(crate) org: [f32; 3],
     /// The permuted axes `[kx, ky, kz]`; `kz` is the dominant axis of the
@@ -54,9 +61,9 @@ pub struct ShearedRay {
 /// A hit of one triangle before the barycentrics are divided out: only the
 /// winner of a closest-hit search pays for those two divisions.
 #[derive(Clone, Copy, Debug)]
-pub struct TriangleHit {
+pub(crate) struct TriangleHit {
     /// Ray parameter of the hit.
-    pub t: f32,
+    pub(crate) t: f32,
     /// Edge function weighting vertex 1.
     pub(crate) v: f32,
     /// Edge function weighting vertex 2.
@@ -69,7 +76,7 @@ impl TriangleHit {
     /// The hit record of triangle `prim`.
     #[inline]
     #[must_use]
-    pub fn to_hit(self, prim: u32) -> Hit {
+    pub(crate) fn to_hit(self, prim: u32) -> Hit {
         Hit {
             t: self.t,
             prim,
@@ -77,17 +84,6 @@ impl TriangleHit {
             v: self.w / self.det,
         }
     }
-}
-
-/// Does `ray` describe a non-empty interval along a real direction?
-/// Rays that fail this hit nothing (the documented NaN policy).
-#[inline]
-#[must_use]
-pub fn ray_is_valid(ray: &Ray) -> bool {
-    ray.origin.iter().all(|c| c.is_finite())
-        && ray.dir.iter().all(|c| c.is_finite())
-        && ray.dir.iter().any(|&c| c != 0.0)
-        && ray.tmin <= ray.tmax
 }
 
 /// The index of the largest `|dir|` component; ties go to the lower axis.
@@ -108,7 +104,7 @@ impl ShearedRay {
     /// [`ray_is_valid`].
     #[inline]
     #[must_use]
-    pub fn new(ray: &Ray) -> Option<ShearedRay> {
+    pub(crate) fn new(ray: &Ray) -> Option<ShearedRay> {
         if !ray_is_valid(ray) {
             return None;
         }
@@ -132,7 +128,7 @@ impl ShearedRay {
     /// The watertight test of `tri` against this ray over `[tmin, tmax]`.
     #[inline(always)]
     #[must_use]
-    pub fn intersect(&self, tri: &Triangle, tmin: f32, tmax: f32) -> Option<TriangleHit> {
+    pub(crate) fn intersect(&self, tri: &Triangle, tmin: f32, tmax: f32) -> Option<TriangleHit> {
         let [kx, ky, kz] = self.k;
         let [sx, sy, sz] = self.s;
         let org = [self.org[kx], self.org[ky], self.org[kz]];
@@ -185,39 +181,13 @@ impl ShearedRay {
 #[inline(never)]
 #[cold]
 #[must_use]
-pub fn edge_functions_f64(p: [f32; 6]) -> [f32; 3] {
+pub(crate) fn edge_functions_f64(p: [f32; 6]) -> [f32; 3] {
     let [ax, ay, bx, by, cx, cy] = p.map(f64::from);
     [
         (cx * by - cy * bx) as f32,
         (ax * cy - ay * cx) as f32,
         (bx * ay - by * ax) as f32,
     ]
-}
-
-/// The brute-force answer: the closest hit of `ray` over all of
-/// `triangles`, by the same test and the same order as the tree.
-/// The oracle every traversal is held to.
-#[must_use]
-pub fn closest_hit_brute(triangles: &[Triangle], ray: &Ray) -> Hit {
-    let Some(sr) = ShearedRay::new(ray) else {
-        return Hit::MISS;
-    };
-    let mut best = crate::traverse::Closest::new(ray.tmax);
-    for (i, tri) in triangles.iter().enumerate() {
-        best.offer(&sr, tri, i as u32, ray.tmin);
-    }
-    best.hit()
-}
-
-/// The brute-force any-hit answer: does any triangle hit `ray` in
-/// `[tmin, tmax]`?
-#[must_use]
-pub fn any_hit_brute(triangles: &[Triangle], ray: &Ray) -> bool {
-    ShearedRay::new(ray).is_some_and(|sr| {
-        triangles
-            .iter()
-            .any(|tri| sr.intersect(tri, ray.tmin, ray.tmax).is_some())
-    })
 }
 
 #[cfg(test)]

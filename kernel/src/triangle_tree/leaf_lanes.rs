@@ -14,11 +14,10 @@
 //! winner is picked by the one closest-hit rule (smallest `t`, then lowest
 //! triangle index): the answer stays brute force's, bit for bit.
 
-use crate::packet::intersect::{watertight, LaneHits};
-use crate::packet::lanes::Lanes;
-use crate::ray::MISS;
-use crate::traverse::Closest;
-use crate::triangle::{ShearedRay, Triangle, TriangleHit};
+use crate::geometry::MISS;
+use crate::lanes::Lanes;
+use crate::triangle::lanes::{watertight, LaneHits};
+use crate::triangle::{Closest, ShearedRay, Triangle, TriangleHit};
 
 /// Leaves with at least this many triangles are tested in lanes; smaller
 /// ones one triangle at a time (measured on bunny camera rays: 2 and 3
@@ -161,7 +160,7 @@ mod tests {
     //! lower index must win), leaves listed in any order and axis-aligned
     //! rays.
     use super::*;
-    use crate::ray::Ray;
+    use crate::geometry::Ray;
     use crate::test_rng::Rng;
     use crate::triangle::{any_hit_brute, closest_hit_brute};
     use wide::{f32x4, f32x8};
@@ -194,7 +193,7 @@ mod tests {
         ray: &Ray,
     ) -> ([u32; 4], bool) {
         let Some(sr) = ShearedRay::new(ray) else {
-            return (crate::ray::Hit::MISS.bits(), false);
+            return (crate::geometry::Hit::MISS.bits(), false);
         };
         let lr = LeafRay::<V, N>::new(&sr);
         let mut best = Closest::new(ray.tmax);

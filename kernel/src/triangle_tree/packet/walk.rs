@@ -12,7 +12,7 @@
 //! The packet walks together only when its active lanes share direction
 //! signs (`LaneRays::coherent`): then "near" is one child for every lane
 //! and each lane meets its cells in its own t order, with exactly the
-//! single ray's slack rule ([`Span`](crate::traverse::Span), shared code)
+//! single ray's slack rule ([`Span`](crate::lanes::Span), shared code)
 //! on the same pre-widened intervals. A lane still tests a few cells its
 //! single ray skips (cells other lanes open, out to the packet's cutoff per
 //! lane), which cannot change its answer: triangles are tested over the
@@ -28,11 +28,13 @@
 //! the near-or-far branch (node, lanes and interval picked by masks): 8-wide
 //! camera tiles ~15-40% slower, as conditional moves were for single rays.
 
+use super::super::walk::LeafIter;
+use super::super::TriangleTree;
 use super::lane_rays::LaneRays;
-use super::lanes::Lanes;
-use crate::ray::{Hit, MISS};
-use crate::traverse::{Closest, LeafIter};
-use crate::tree::{TriangleTree, MAX_DEPTH};
+use crate::blob::MAX_DEPTH;
+use crate::geometry::{Hit, MISS};
+use crate::lanes::Lanes;
+use crate::triangle::Closest;
 
 /// A far child waiting on the stack with its lanes and their intervals
 /// (widened by the slack, as the single ray keeps them).

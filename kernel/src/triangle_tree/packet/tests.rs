@@ -3,8 +3,8 @@
 //! tree is trivially exact and only the walk is under test).
 
 use super::*;
-use crate::node::{Axis, Node};
-use crate::tree::Bounds;
+use crate::blob::Node;
+use crate::geometry::{Axis, Bounds};
 use crate::triangle::Triangle;
 
 use crate::test_rng::Rng;

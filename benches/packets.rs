@@ -91,7 +91,7 @@ fn bench(c: &mut Criterion) {
     }
     let tris = mesh::load(&path).expect("bunny loads");
     let built = build(&tris, BuilderKind::Sah, &BuildParams::default()).expect("bunny builds");
-    let blob: Blob = write_triangle_tree(&built, &tris);
+    let blob: Blob = write_triangle_tree(&built, &tris).expect("the bench tree fits a blob");
     let tree = blob.tree().expect("blob validates");
     let (lo, hi) = (Vec3::from(built.bounds.min), Vec3::from(built.bounds.max));
     let camera = camera_rays(lo, hi);

@@ -33,7 +33,7 @@ fn scenes() -> Vec<(String, Vec<Triangle>, Aabb)> {
 fn trace(c: &mut Criterion) {
     for (name, tris, focus) in scenes() {
         let built = build(&tris, BuilderKind::default(), &BuildParams::default()).unwrap();
-        let blob: Blob = write_triangle_tree(&built, &tris);
+        let blob: Blob = write_triangle_tree(&built, &tris).expect("the bench tree fits a blob");
         let tree = blob.tree().unwrap();
         let bounds = tris
             .iter()

@@ -20,7 +20,7 @@ fn check_all(name: &str, tris: &[Triangle], rays: &[Ray]) -> usize {
     let mut hits = 0;
     for kind in BuilderKind::ALL {
         let built = build(tris, kind, &BuildParams::default()).unwrap();
-        let blob = write_triangle_tree(&built, tris);
+        let blob = write_triangle_tree(&built, tris).unwrap();
         let tree = blob
             .tree()
             .unwrap_or_else(|e| panic!("{name}/{}: {e}", kind.name()));

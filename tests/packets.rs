@@ -36,7 +36,9 @@ fn scene(rng: &mut Rng, n: usize, grid: bool) -> Vec<Triangle> {
 fn blobs(tris: &[Triangle]) -> Vec<Blob> {
     BuilderKind::ALL
         .iter()
-        .map(|&k| write_triangle_tree(&build(tris, k, &BuildParams::default()).unwrap(), tris))
+        .map(|&k| {
+            write_triangle_tree(&build(tris, k, &BuildParams::default()).unwrap(), tris).unwrap()
+        })
         .collect()
 }
 

@@ -82,7 +82,7 @@ mod test_rng;
 mod triangle;
 mod triangle_tree;
 
-pub use blob::{node, wire, BlobError, Node, NodeKind, MAX_DEPTH};
+pub use blob::{node, wire, BlobError, Node, NodeKind, WriteError, MAX_DEPTH};
 pub use geometry::{ray_is_valid, Axis, Bounds, Hit, Ray, MISS, OCCLUDED};
 pub use points::{
     distance2, knn_brute, nearest_brute, within_brute, BufferTooSmall, Neighbour, PointTree,

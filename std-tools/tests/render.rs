@@ -40,7 +40,7 @@ fn bounds(tris: &[Triangle]) -> Aabb {
 /// by brute force, and checks all four pictures are the same.
 fn check_tree_matches_brute(tris: &[Triangle], camera: Camera, w: u32, h: u32) -> Image {
     let built = build(tris, BuilderKind::default(), &BuildParams::default()).unwrap();
-    let blob = write_triangle_tree(&built, tris);
+    let blob = write_triangle_tree(&built, tris).unwrap();
     let tree = blob.tree().unwrap();
     let params = RenderParams::new(camera, w, h, &bounds(tris));
     let brute = render(&BruteTracer(tris), &params, &|| ());
@@ -101,7 +101,7 @@ fn heatmap_has_a_legend_and_costs_that_vary() {
         &BuildParams::default(),
     )
     .unwrap();
-    let blob = write_triangle_tree(&built, &scene.triangles);
+    let blob = write_triangle_tree(&built, &scene.triangles).unwrap();
     let tree = blob.tree().unwrap();
     let params = RenderParams::new(
         Camera::framing(&scene.focus),

@@ -18,7 +18,7 @@ pub(crate) fn shared_meshes() -> Option<PathBuf> {
 /// Builds `tris` with `kind` and returns the blob (validated by the caller via `tree()`).
 pub(crate) fn blob(tris: &[Triangle], kind: BuilderKind) -> Blob {
     let built = build(tris, kind, &BuildParams::default()).expect("build");
-    write_triangle_tree(&built, tris)
+    write_triangle_tree(&built, tris).unwrap()
 }
 
 /// Asserts every builder's tree answers every ray exactly as brute force:

@@ -262,3 +262,44 @@ fn kind_name(kind: u32) -> &'static str {
 }
 
 impl core::error::Error for BlobError {}
+
+/// Why a blob could not be written: a count the header cannot hold, or an
+/// output buffer too small for the blob.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum WriteError {
+    /// A section has more records than the header's 32-bit count holds.
+    TooMany {
+        /// The section ("nodes", "triangles", ...).
+        what: &'static str,
+        /// Its record count.
+        count: usize,
+    },
+    /// The blob's size overflows the address space.
+    TooLarge,
+    /// The output buffer is smaller than the blob.
+    BufferTooSmall {
+        /// Bytes the blob needs.
+        need: usize,
+        /// Bytes the buffer has.
+        have: usize,
+    },
+}
+
+impl fmt::Display for WriteError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            WriteError::TooMany { what, count } => write!(
+                f,
+                "{count} {what} do not fit a blob (at most {} per section)",
+                u32::MAX
+            ),
+            WriteError::TooLarge => f.write_str("the blob's size overflows the address space"),
+            WriteError::BufferTooSmall { need, have } => {
+                write!(f, "the blob needs {need} bytes, the buffer has {have}")
+            }
+        }
+    }
+}
+
+impl core::error::Error for WriteError {}

@@ -6,7 +6,7 @@ pub mod node;
 mod validate;
 pub mod wire;
 
-pub use error::BlobError;
+pub use error::{BlobError, WriteError};
 pub use node::{Node, NodeKind};
 pub(crate) use validate::{validate_nodes, validate_nodes_with};
 

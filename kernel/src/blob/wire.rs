@@ -25,8 +25,9 @@
 //! zero, so it covers the header's counts and bounds too; fast enough to
 //! verify on every load.
 
-use super::error::BlobError;
+use super::error::{BlobError, WriteError};
 use super::MAX_DEPTH;
+use crate::geometry::Bounds;
 use bytemuck::{Pod, Zeroable};
 
 /// The first 8 bytes of every blob.
@@ -124,6 +125,75 @@ pub fn blob_checksum(bytes: &[u8]) -> u32 {
         h = (h ^ u32::from(b)).wrapping_mul(FNV_PRIME);
     }
     h
+}
+
+/// Writes a blob: the header (its counts and checksum filled in), then the
+/// `sections` in order, each a run of records as bytes. `counts` are the
+/// node, primitive-index and item counts the header records; every
+/// section's byte length is a multiple of 4, as the reader requires.
+/// Returns the bytes written: the start of `out`.
+///
+/// # Errors
+/// [`WriteError::TooMany`] for a count above `u32::MAX`,
+/// [`WriteError::BufferTooSmall`] when `out` is shorter than the blob.
+pub(crate) fn write_blob(
+    out: &mut [u8],
+    kind: u32,
+    max_depth: u32,
+    bounds: Bounds,
+    counts: [(&'static str, usize); 3],
+    sections: &[&[u8]],
+) -> Result<usize, WriteError> {
+    let [nodes, indices, items] = counts
+        .map(|(what, count)| u32::try_from(count).map_err(|_| WriteError::TooMany { what, count }));
+    let header = Header {
+        magic: MAGIC,
+        endian: ENDIAN_CHECK,
+        version: VERSION,
+        kind,
+        max_depth,
+        node_count: nodes?,
+        index_count: indices?,
+        item_count: items?,
+        checksum: 0,
+        bounds_min: bounds.min,
+        bounds_max: bounds.max,
+    };
+    let need = blob_len(sections)?;
+    let have = out.len();
+    let Some(blob) = out.get_mut(..need) else {
+        return Err(WriteError::BufferTooSmall { need, have });
+    };
+    // `need` is the header plus every section, so each split below fits;
+    // the checked forms turn an impossible miss into an error, not a panic.
+    let (head, mut rest) = blob
+        .split_at_mut_checked(HEADER_LEN)
+        .ok_or(WriteError::TooLarge)?;
+    head.copy_from_slice(bytemuck::bytes_of(&header));
+    for s in sections {
+        let (dst, tail) = rest
+            .split_at_mut_checked(s.len())
+            .ok_or(WriteError::TooLarge)?;
+        dst.copy_from_slice(s);
+        rest = tail;
+    }
+    let sum = blob_checksum(blob);
+    if let Some(field) = blob.get_mut(CHECKSUM_OFFSET..CHECKSUM_OFFSET + 4) {
+        field.copy_from_slice(&sum.to_le_bytes());
+    }
+    Ok(need)
+}
+
+/// The size in bytes of a blob with these sections: the header and each
+/// section's bytes.
+///
+/// # Errors
+/// [`WriteError::TooLarge`] when the sum overflows.
+pub(crate) fn blob_len(sections: &[&[u8]]) -> Result<usize, WriteError> {
+    sections
+        .iter()
+        .try_fold(HEADER_LEN, |n, s| n.checked_add(s.len()))
+        .ok_or(WriteError::TooLarge)
 }
 
 /// Reads the sections after the header in order, each as a slice of Pod
@@ -263,4 +333,53 @@ macro_rules! include_aligned {
         };
         ALIGNED
     }};
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const BOUNDS: Bounds = Bounds {
+        min: [0.0; 3],
+        max: [1.0; 3],
+    };
+
+    #[test]
+    fn a_count_beyond_32_bits_is_an_error_not_a_truncation() {
+        let mut out = [0u8; HEADER_LEN];
+        let too_many = u32::MAX as usize + 1;
+        let counts = [("nodes", 1), ("primitive indices", 0), ("points", too_many)];
+        assert_eq!(
+            write_blob(&mut out, KIND_POINTS, 0, BOUNDS, counts, &[]),
+            Err(WriteError::TooMany {
+                what: "points",
+                count: too_many
+            })
+        );
+    }
+
+    #[test]
+    fn a_short_buffer_is_an_error_and_a_long_one_is_used_from_the_start() {
+        let section = [7u8; 8];
+        let counts = [("nodes", 1), ("primitive indices", 0), ("triangles", 0)];
+        let mut short = [0u8; HEADER_LEN + 4];
+        assert_eq!(
+            write_blob(&mut short, KIND_TRIANGLES, 0, BOUNDS, counts, &[&section]),
+            Err(WriteError::BufferTooSmall {
+                need: HEADER_LEN + 8,
+                have: HEADER_LEN + 4
+            })
+        );
+        let mut long = [0xAAu8; HEADER_LEN + 12];
+        let n = write_blob(&mut long, KIND_TRIANGLES, 3, BOUNDS, counts, &[&section]);
+        assert_eq!(n, Ok(HEADER_LEN + 8));
+        let header: Header = bytemuck::pod_read_unaligned(&long[..HEADER_LEN]);
+        assert_eq!(
+            (header.kind, header.max_depth, header.node_count),
+            (KIND_TRIANGLES, 3, 1)
+        );
+        assert_eq!(header.checksum, blob_checksum(&long[..HEADER_LEN + 8]));
+        assert_eq!(long[HEADER_LEN..HEADER_LEN + 8], section);
+        assert_eq!(long[HEADER_LEN + 8..], [0xAA; 4]);
+    }
 }

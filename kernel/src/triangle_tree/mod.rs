@@ -12,9 +12,14 @@ mod walk;
 pub use counts::TraversalCounts;
 
 use crate::blob::wire::{self, Header, Sections, KIND_TRIANGLES};
-use crate::blob::{validate_nodes, BlobError, Node};
+use crate::blob::{validate_nodes, BlobError, Node, WriteError};
 use crate::geometry::Bounds;
 use crate::triangle::Triangle;
+
+/// A triangle tree's sections after the header, in blob order: what
+/// [`TriangleTree::from_bytes`] reads and [`TriangleTree::write_parts_to`]
+/// writes, each named as errors name it.
+const SECTIONS: [&str; 3] = ["nodes", "primitive indices", "triangles"];
 
 /// A triangle k-d tree, borrowed. Cheap to copy; share it across threads.
 #[derive(Clone, Copy, Debug)]
@@ -101,11 +106,65 @@ impl<'a> TriangleTree<'a> {
         bytes: &'a [u8],
     ) -> Result<(&'a Header, &'a [Node], &'a [u32], &'a [Triangle], &'a [u8]), BlobError> {
         let (header, mut s) = Sections::open(bytes, KIND_TRIANGLES)?;
-        let nodes = s.take("nodes", header.node_count)?;
-        let prims = s.take("primitive indices", header.index_count)?;
-        let triangles = s.take("triangles", header.item_count)?;
+        let [nodes_name, prims_name, tris_name] = SECTIONS;
+        let nodes = s.take(nodes_name, header.node_count)?;
+        let prims = s.take(prims_name, header.index_count)?;
+        let triangles = s.take(tris_name, header.item_count)?;
         let whole = s.finish()?;
         Ok((header, nodes, prims, triangles, whole))
+    }
+
+    /// The size in bytes of the blob [`TriangleTree::write_parts_to`]
+    /// writes for these parts.
+    ///
+    /// # Errors
+    /// [`WriteError::TooLarge`] when the size overflows.
+    pub fn write_parts_len(
+        nodes: &[Node],
+        prims: &[u32],
+        triangles: &[Triangle],
+    ) -> Result<usize, WriteError> {
+        wire::blob_len(&[
+            bytemuck::cast_slice(nodes),
+            bytemuck::cast_slice(prims),
+            bytemuck::cast_slice(triangles),
+        ])
+    }
+
+    /// Writes a triangle-tree blob into `out` (at least
+    /// [`TriangleTree::write_parts_len`] bytes): the header, then the
+    /// sections in the order [`TriangleTree::from_bytes`] reads them. The
+    /// parts are written as given, not validated (a loader validates);
+    /// `max_depth` is the depth of the deepest node. Little-endian, as
+    /// every platform kdray supports; the same parts give the same bytes.
+    /// Returns the bytes written.
+    ///
+    /// # Errors
+    /// [`WriteError`] for a count the header cannot hold or a short buffer.
+    ///
+    /// # Panics
+    /// Never, for any input.
+    pub fn write_parts_to(
+        nodes: &[Node],
+        prims: &[u32],
+        triangles: &[Triangle],
+        bounds: Bounds,
+        max_depth: u32,
+        out: &mut [u8],
+    ) -> Result<usize, WriteError> {
+        let [n, p, t] = SECTIONS;
+        wire::write_blob(
+            out,
+            KIND_TRIANGLES,
+            max_depth,
+            bounds,
+            [(n, nodes.len()), (p, prims.len()), (t, triangles.len())],
+            &[
+                bytemuck::cast_slice(nodes),
+                bytemuck::cast_slice(prims),
+                bytemuck::cast_slice(triangles),
+            ],
+        )
     }
 
     /// A view of a tree held in memory (a builder's output), validated like

@@ -110,7 +110,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
                 built = Some(b);
             }
             let built = built.ok_or("no build")?;
-            let blob = write_triangle_tree(&built, tris);
+            let blob = write_triangle_tree(&built, tris)?;
             let tree = blob.tree()?;
             let st = tree_stats(&tree, CostModel::from_params(&params));
             let wh = tree_stats(&tree, CostModel::WALD_HAVRAN);

@@ -79,7 +79,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let built = with_bar(&monitor, || build_monitored(&tris, kind, &params, &monitor))
         .map_err(|e| format!("{}: {e}", a.mesh.display()))?;
     let build_ms = t.elapsed().as_secs_f64() * 1e3;
-    let blob = write_triangle_tree(&built, &tris);
+    let blob = write_triangle_tree(&built, &tris)?;
     let tree = blob
         .tree()
         .map_err(|e| format!("internal error: the built tree does not validate: {e}"))?;

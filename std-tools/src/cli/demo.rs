@@ -50,7 +50,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let t = Instant::now();
     let built = build(&scene.triangles, BuilderKind::default(), &params)?;
     let build_ms = t.elapsed().as_secs_f64() * 1e3;
-    let blob = write_triangle_tree(&built, &scene.triangles);
+    let blob = write_triangle_tree(&built, &scene.triangles)?;
     let tree = blob.tree()?;
     say!("  build              {build_ms:.1} ms");
     print_stats(&tree_stats(&tree, CostModel::from_params(&params)));

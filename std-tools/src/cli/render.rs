@@ -74,7 +74,7 @@ fn tree_blob(path: &Path) -> Result<Blob, Box<dyn std::error::Error>> {
     } else {
         let tris = mesh::load(path)?;
         let built = build(&tris, BuilderKind::default(), &BuildParams::default())?;
-        write_triangle_tree(&built, &tris)
+        write_triangle_tree(&built, &tris)?
     })
 }
 

@@ -3,9 +3,10 @@
 //! shadows), and packets of 4 and 8 render exactly what single rays do.
 
 use glam::Vec3;
+use kdray_kernel::Bounds;
 use kdray_kernel::{PacketWidth, Triangle};
 use kdray_tools::blob::write_triangle_tree;
-use kdray_tools::build::{build, Aabb, BuildParams, BuilderKind};
+use kdray_tools::build::{build, BuildParams, BuilderKind};
 use kdray_tools::camera::Camera;
 use kdray_tools::render::{
     render, render_heatmap, BruteTracer, Image, RenderParams, TreeTracer, BACKGROUND, LEGEND_HEIGHT,
@@ -31,9 +32,8 @@ fn floor_and_tetrahedron() -> Vec<Triangle> {
     ]
 }
 
-fn bounds(tris: &[Triangle]) -> Aabb {
-    tris.iter()
-        .fold(Aabb::EMPTY, |b, t| b.union(&Aabb::of_triangle(t)))
+fn bounds(tris: &[Triangle]) -> Bounds {
+    tris.iter().fold(Bounds::EMPTY, |b, t| b.union(&t.bounds()))
 }
 
 /// Renders `tris` seen by `camera` with the tree at every packet width and

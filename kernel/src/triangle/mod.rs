@@ -21,7 +21,7 @@ pub(crate) mod lanes;
 pub use brute::{any_hit_brute, closest_hit_brute};
 pub(crate) use closest::Closest;
 
-use crate::geometry::{ray_is_valid, Hit, Ray};
+use crate::geometry::{ray_is_valid, Bounds, Hit, Ray};
 use bytemuck::{Pod, Zeroable};
 
 /// A triangle: three vertices. `repr(C)`, Pod, 36 bytes; the blob stores
@@ -36,6 +36,17 @@ pub struct Triangle {
 const _: () = assert!(core::mem::size_of::<Triangle>() == 36);
 
 impl Triangle {
+    /// The smallest box holding the triangle.
+    #[inline]
+    #[must_use]
+    pub fn bounds(&self) -> Bounds {
+        let [p, q, r] = self.v;
+        Bounds {
+            min: core::array::from_fn(|a| p[a].min(q[a]).min(r[a])),
+            max: core::array::from_fn(|a| p[a].max(q[a]).max(r[a])),
+        }
+    }
+
     /// Are all nine coordinates finite?
     #[inline]
     #[must_use]

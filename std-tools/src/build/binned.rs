@@ -6,10 +6,10 @@
 //! bin boundary, which are the candidate planes. O(N) per cell, no sort:
 //! for fast rebuilds, at a small loss of tree quality.
 
-use super::aabb::Aabb;
 use super::boxes::Item;
 use super::cost::{least_price, AreaRatios, CostModel};
 use super::subdivide::{Choice, PARALLEL_MIN};
+use kdray_kernel::Bounds;
 use rayon::prelude::*;
 use wide::f32x8;
 
@@ -28,7 +28,7 @@ pub(super) const MIN_GAIN: f64 = 0.1;
 /// [`MIN_GAIN`] of the leaf's cost.
 pub(super) fn choose_saving(
     items: &[Item],
-    cell: &Aabb,
+    cell: &Bounds,
     bins: usize,
     cost: &CostModel,
 ) -> Option<Choice> {
@@ -81,7 +81,7 @@ impl<const B: usize> Tally<B> {
 
     /// Counts `items` into `bins` (at most `B`) equal bins per axis of
     /// `cell`.
-    fn count(&mut self, items: &[Item], cell: &Aabb, bins: usize) {
+    fn count(&mut self, items: &[Item], cell: &Bounds, bins: usize) {
         // Eight lanes: the box's six edges as they lie in memory (starts,
         // then ends), and two unused.
         let lanes = |v: [f32; 3]| f32x8::from([v[0], v[1], v[2], v[0], v[1], v[2], 0.0, 0.0]);
@@ -133,7 +133,12 @@ impl<const B: usize> Tally<B> {
 /// boundaries, and the planes through the boxes' extremes, which cut off
 /// the cell's empty space as exactly as the event sweep does. At most
 /// [`MAX_BINS`] bins.
-pub(super) fn choose(items: &[Item], cell: &Aabb, bins: usize, cost: &CostModel) -> Option<Choice> {
+pub(super) fn choose(
+    items: &[Item],
+    cell: &Bounds,
+    bins: usize,
+    cost: &CostModel,
+) -> Option<Choice> {
     // Small cells near the leaves get fewer bins (about half their
     // triangles): pricing 31 planes per axis for 6 triangles was most of
     // the build, and the bunny's tree costs the same (32.8).
@@ -151,7 +156,7 @@ pub(super) fn choose(items: &[Item], cell: &Aabb, bins: usize, cost: &CostModel)
 /// multiple of 8: whole vectors).
 fn choose_in<const B: usize, const M: usize>(
     items: &[Item],
-    cell: &Aabb,
+    cell: &Bounds,
     bins: usize,
     cost: &CostModel,
 ) -> Option<Choice> {
@@ -180,7 +185,7 @@ fn choose_in<const B: usize, const M: usize>(
 fn price<const B: usize, const M: usize>(
     t: &Tally<B>,
     n: usize,
-    cell: &Aabb,
+    cell: &Bounds,
     bins: usize,
     cost: &CostModel,
 ) -> Option<Choice> {

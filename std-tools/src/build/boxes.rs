@@ -8,11 +8,11 @@
 //! the plane, which still holds every point of the triangle in each cell);
 //! a box lying in the plane goes to the side the rule chose.
 
-use super::aabb::Aabb;
 use super::clip::{cut_box, cut_triangle};
 use super::cost::CostModel;
 use super::subdivide::{Choice, Splitter, PARALLEL_MIN};
 use super::{binned, median};
+use kdray_kernel::Bounds;
 use kdray_kernel::Triangle;
 use rayon::prelude::*;
 
@@ -26,14 +26,14 @@ pub(super) struct Item {
     /// The triangle.
     pub(super) tri: u32,
     /// Its box, clipped to the cell.
-    pub(super) b: Aabb,
+    pub(super) b: Bounds,
 }
 
 impl Item {
     /// A placeholder, overwritten before use.
     const NONE: Item = Item {
         tri: 0,
-        b: Aabb::EMPTY,
+        b: Bounds::EMPTY,
     };
 }
 
@@ -70,7 +70,7 @@ pub(super) struct BoxSplitter<'a> {
 
 impl BoxSplitter<'_> {
     /// The root cell's items.
-    pub(super) fn root(boxes: &[Aabb]) -> Vec<Item> {
+    pub(super) fn root(boxes: &[Bounds]) -> Vec<Item> {
         boxes
             .iter()
             .enumerate()
@@ -94,7 +94,7 @@ impl Splitter for BoxSplitter<'_> {
         prims(set)
     }
 
-    fn choose(&self, set: &Vec<Item>, cell: &Aabb) -> Option<Choice> {
+    fn choose(&self, set: &Vec<Item>, cell: &Bounds) -> Option<Choice> {
         match self.rule {
             Rule::Binned(bins) => binned::choose_saving(set, cell, bins, &self.cost),
             Rule::Median(leaf) => median::choose(set, cell, leaf, true),
@@ -102,7 +102,7 @@ impl Splitter for BoxSplitter<'_> {
         }
     }
 
-    fn partition(&self, set: Vec<Item>, cell: &Aabb, c: &Choice) -> (Vec<Item>, Vec<Item>) {
+    fn partition(&self, set: Vec<Item>, cell: &Bounds, c: &Choice) -> (Vec<Item>, Vec<Item>) {
         let n = set.len();
         let (a, p) = (c.axis, c.pos);
         match self.straddlers {
@@ -151,7 +151,7 @@ fn sides(it: &Item, c: &Choice) -> (bool, bool) {
 /// thread count.
 pub(super) fn partition<F>(mut set: Vec<Item>, c: &Choice, cut: F) -> (Vec<Item>, Vec<Item>)
 where
-    F: Fn(&Item) -> (Option<Aabb>, Option<Aabb>) + Sync,
+    F: Fn(&Item) -> (Option<Bounds>, Option<Bounds>) + Sync,
 {
     let count = |chunk: &[Item]| {
         chunk.iter().fold((0usize, 0usize), |(b, a), it| {

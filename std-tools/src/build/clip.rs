@@ -13,7 +13,7 @@
 //! minimum, toward +inf for the maximum) and intersected with the cell.
 //! A triangle is dropped from a cell only when it misses the grown cell.
 
-use super::aabb::Aabb;
+use kdray_kernel::Bounds;
 use kdray_kernel::Triangle;
 
 /// The margin relative to the largest coordinate magnitude: 2^-40, about
@@ -117,10 +117,10 @@ fn round_up(x: f64) -> f32 {
 #[must_use]
 pub(super) fn split_boxes(
     tri: &Triangle,
-    cell: &Aabb,
+    cell: &Bounds,
     axis: usize,
     pos: f32,
-) -> (Option<Aabb>, Option<Aabb>) {
+) -> (Option<Bounds>, Option<Bounds>) {
     let eps = margin(tri, cell);
     let poly = clip_to_cell(tri, cell, eps);
     let (below, above) = cell.split(axis, pos);
@@ -150,11 +150,11 @@ const CUT_MARGIN: f32 = 1.0 / 262_144.0;
 #[must_use]
 pub(super) fn cut_triangle(
     tri: &Triangle,
-    b: &Aabb,
-    cell: &Aabb,
+    b: &Bounds,
+    cell: &Bounds,
     axis: usize,
     pos: f32,
-) -> (Option<Aabb>, Option<Aabb>) {
+) -> (Option<Bounds>, Option<Bounds>) {
     let scale = tri.v.iter().flatten().fold(0.0f32, |m, &c| m.max(c.abs()));
     // At least the smallest normal float: below it the rounding error is
     // absolute (2^-149 per operation), not relative.
@@ -198,8 +198,8 @@ pub(super) fn cut_triangle(
         return cut_box(b, cell, axis, pos);
     }
     let (below, above) = cell.split(axis, pos);
-    let boxed = |side: usize, child: &Aabb| {
-        let part = Aabb {
+    let boxed = |side: usize, child: &Bounds| {
+        let part = Bounds {
             min: lo[side],
             max: hi[side],
         };
@@ -213,11 +213,11 @@ pub(super) fn cut_triangle(
 /// (below, above), both kept.
 #[must_use]
 pub(super) fn cut_box(
-    b: &Aabb,
-    cell: &Aabb,
+    b: &Bounds,
+    cell: &Bounds,
     axis: usize,
     pos: f32,
-) -> (Option<Aabb>, Option<Aabb>) {
+) -> (Option<Bounds>, Option<Bounds>) {
     let (below, above) = cell.split(axis, pos);
     (Some(b.intersect(&below)), Some(b.intersect(&above)))
 }
@@ -226,13 +226,13 @@ pub(super) fn cut_box(
 /// within `cell`; `None` when the triangle misses the cell.
 #[must_use]
 #[cfg(test)]
-pub(super) fn clipped_box(tri: &Triangle, cell: &Aabb) -> Option<Aabb> {
+pub(super) fn clipped_box(tri: &Triangle, cell: &Bounds) -> Option<Bounds> {
     let eps = margin(tri, cell);
     bounds(&clip_to_cell(tri, cell, eps), cell, eps)
 }
 
 /// The clip margin for `tri` in `cell`.
-fn margin(tri: &Triangle, cell: &Aabb) -> f64 {
+fn margin(tri: &Triangle, cell: &Bounds) -> f64 {
     let scale = tri
         .v
         .iter()
@@ -244,7 +244,7 @@ fn margin(tri: &Triangle, cell: &Aabb) -> f64 {
 }
 
 /// `tri` clipped to `cell` grown by `eps`.
-fn clip_to_cell(tri: &Triangle, cell: &Aabb, eps: f64) -> Polygon {
+fn clip_to_cell(tri: &Triangle, cell: &Bounds, eps: f64) -> Polygon {
     let mut poly = Polygon {
         v: [[0.0; 3]; MAX_VERTICES],
         len: 3,
@@ -260,7 +260,7 @@ fn clip_to_cell(tri: &Triangle, cell: &Aabb, eps: f64) -> Polygon {
 }
 
 /// The box of `poly` grown by `eps`, rounded outward, within `cell`.
-fn bounds(poly: &Polygon, cell: &Aabb, eps: f64) -> Option<Aabb> {
+fn bounds(poly: &Polygon, cell: &Bounds, eps: f64) -> Option<Bounds> {
     if poly.len == 0 {
         return None;
     }
@@ -272,7 +272,7 @@ fn bounds(poly: &Polygon, cell: &Aabb, eps: f64) -> Option<Aabb> {
             hi[a] = hi[a].max(p[a]);
         }
     }
-    let b = Aabb {
+    let b = Bounds {
         min: lo.map(|x| round_down(x - eps)),
         max: hi.map(|x| round_up(x + eps)),
     };
@@ -288,7 +288,7 @@ mod tests {
     /// Asserts that `b` holds (to a rounding slack) every point of a
     /// barycentric grid of `n` steps over `t` lying in `cell`, and is
     /// `Some` when any does.
-    fn assert_holds_points_in(b: Option<Aabb>, t: &Triangle, cell: &Aabb, n: usize) {
+    fn assert_holds_points_in(b: Option<Bounds>, t: &Triangle, cell: &Bounds, n: usize) {
         for i in 0..=n {
             for j in 0..=(n - i) {
                 let (u, v) = (i as f32 / n as f32, j as f32 / n as f32);
@@ -310,8 +310,8 @@ mod tests {
         Triangle { v }
     }
 
-    fn cell(min: [f32; 3], max: [f32; 3]) -> Aabb {
-        Aabb { min, max }
+    fn cell(min: [f32; 3], max: [f32; 3]) -> Bounds {
+        Bounds { min, max }
     }
 
     #[test]
@@ -398,7 +398,7 @@ mod tests {
         // Edges spanning -3e38..3e38 overflow `c - a`: the box is cut.
         let t = tri([[-3e38, -3e38, 0.0], [3e38, 3e38, 1.0], [3e38, -3e38, 0.0]]);
         let c = cell([-3e38; 3], [3e38; 3]);
-        let b = Aabb::of_triangle(&t).intersect(&c);
+        let b = t.bounds().intersect(&c);
         assert_eq!(cut_triangle(&t, &b, &c, 1, 0.0), cut_box(&b, &c, 1, 0.0));
     }
 }

@@ -12,7 +12,7 @@
 //! finished trees with it, so a tree's cost and its builder's choices are
 //! measured in the same units.
 
-use super::aabb::Aabb;
+use kdray_kernel::Bounds;
 
 /// The constants of the cost model.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -151,13 +151,13 @@ pub(super) struct AreaRatios {
 
 impl AreaRatios {
     /// For planes along `axis` of `cell`; `None` when the cell has no area.
-    pub(super) fn new(cell: &Aabb, axis: usize) -> Option<AreaRatios> {
+    pub(super) fn new(cell: &Bounds, axis: usize) -> Option<AreaRatios> {
         Self::with_area(cell, axis, cell.area())
     }
 
     /// [`AreaRatios::new`] given the cell's area (computed once for the
     /// three axes).
-    pub(super) fn with_area(cell: &Aabb, axis: usize, area: f64) -> Option<AreaRatios> {
+    pub(super) fn with_area(cell: &Bounds, axis: usize, area: f64) -> Option<AreaRatios> {
         if area <= 0.0 {
             return None;
         }

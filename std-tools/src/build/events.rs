@@ -11,7 +11,7 @@
 //! Keys are unique, so any sort gives the same order: the tree does not
 //! depend on the sort algorithm or the thread count.
 
-use super::aabb::Aabb;
+use kdray_kernel::Bounds;
 
 /// A triangle's box ends here (sorts first at a position).
 pub(super) const END: u64 = 0;
@@ -68,7 +68,7 @@ pub(super) fn tri(e: u64) -> u32 {
 /// The events of triangle `tri` with box `b` on `axis`: one planar event,
 /// or a start and an end.
 #[inline]
-pub(super) fn push(out: &mut Vec<u64>, b: &Aabb, axis: usize, tri: u32) {
+pub(super) fn push(out: &mut Vec<u64>, b: &Bounds, axis: usize, tri: u32) {
     let (lo, hi) = (b.min[axis], b.max[axis]);
     if lo == hi {
         out.push(event(lo, PLANAR, tri));

@@ -3,14 +3,14 @@
 //! triangles' box centres (`median`) or at its middle (`middle`); stop at a
 //! leaf size or the depth limit. Kept only to measure the SAH against.
 
-use super::aabb::Aabb;
 use super::boxes::Item;
 use super::subdivide::Choice;
+use kdray_kernel::Bounds;
 
 /// The plane for `cell`, or `None` at `leaf_size` triangles or fewer.
 pub(super) fn choose(
     items: &[Item],
-    cell: &Aabb,
+    cell: &Bounds,
     leaf_size: usize,
     median: bool,
 ) -> Option<Choice> {

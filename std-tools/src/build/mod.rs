@@ -14,7 +14,6 @@
 //! | [`BuilderKind::Median`] | median of box centres, widest axis | - | baseline |
 //! | [`BuilderKind::Middle`] | middle of the cell, widest axis | - | baseline |
 
-mod aabb;
 mod binned;
 mod boxes;
 mod clip;
@@ -27,7 +26,6 @@ mod sah;
 mod small;
 mod subdivide;
 
-pub use aabb::Aabb;
 pub use cost::CostModel;
 pub use layout::{flatten, BuildNode, Split};
 pub use monitor::BuildMonitor;
@@ -269,14 +267,14 @@ fn build_in_pool(
     monitor: &BuildMonitor,
 ) -> BuiltTree {
     use rayon::prelude::*;
-    let boxes: Vec<Aabb> = triangles.par_iter().map(Aabb::of_triangle).collect();
+    let boxes: Vec<Bounds> = triangles.par_iter().map(Triangle::bounds).collect();
     let bounds = if triangles.is_empty() {
-        Aabb::ZERO
+        Bounds::ZERO
     } else {
         boxes
             .par_iter()
             .copied()
-            .reduce(|| Aabb::EMPTY, |a, b| a.union(&b))
+            .reduce(|| Bounds::EMPTY, |a, b| a.union(&b))
     };
     let extent = (0..3).fold(0.0f32, |m, a| m.max(bounds.max[a] - bounds.min[a]));
     let cost = CostModel::from_params(params);
@@ -322,5 +320,5 @@ fn build_in_pool(
             subdivide::subdivide(&s, set, bounds, &limits, monitor)
         }
     };
-    flatten(root, bounds.to_bounds())
+    flatten(root, bounds)
 }

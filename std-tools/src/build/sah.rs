@@ -46,7 +46,6 @@
 //! the 1.1M-triangle bunny 33.33 against 33.49; camera and random rays
 //! within the noise), in 55-60% of the build time (`docs/builders.md`).
 
-use super::aabb::Aabb;
 use super::binned;
 use super::boxes::{self, Item};
 use super::clip::{cut_box, split_boxes, PERFECT_MIN};
@@ -54,6 +53,7 @@ use super::cost::{AreaRatios, CostModel};
 use super::events::{self, END, PLANAR, START};
 use super::small::{self, SMALL_MAX};
 use super::subdivide::{Choice, Splitter};
+use kdray_kernel::Bounds;
 use kdray_kernel::Triangle;
 use std::cell::RefCell;
 
@@ -184,7 +184,7 @@ const BELOW: u8 = 1;
 const ABOVE: u8 = 2;
 
 /// A straddling triangle and its boxes in the cells below and above.
-type Clipped = (u32, Option<Aabb>, Option<Aabb>);
+type Clipped = (u32, Option<Bounds>, Option<Bounds>);
 
 /// The reusable buffers of one split, so small cells allocate only their
 /// children's event lists.
@@ -279,7 +279,7 @@ impl ChildRuns<'_> {
             .filter(|&&e| events::kind(e) != END)
             .map(|&e| Item {
                 tri: events::tri(e),
-                b: Aabb::EMPTY,
+                b: Bounds::EMPTY,
             })
             .collect();
         items.sort_unstable_by_key(|it| it.tri);
@@ -326,25 +326,25 @@ impl EventSah<'_> {
         &self,
         n: usize,
         t: u32,
-        cell: &Aabb,
+        cell: &Bounds,
         axis: usize,
         pos: f32,
-    ) -> (Option<Aabb>, Option<Aabb>) {
+    ) -> (Option<Bounds>, Option<Bounds>) {
         let tri = &self.triangles[t as usize];
         if n >= PERFECT_MIN {
             split_boxes(tri, cell, axis, pos)
         } else {
-            cut_box(&Aabb::of_triangle(tri).intersect(cell), cell, axis, pos)
+            cut_box(&tri.bounds().intersect(cell), cell, axis, pos)
         }
     }
 
     /// The root cell from the triangles' boxes.
-    pub(super) fn root(&self, boxes: &[Aabb]) -> Cell {
+    pub(super) fn root(&self, boxes: &[Bounds]) -> Cell {
         Cell::of_items(boxes::BoxSplitter::root(boxes), self.sweep_max)
     }
 
     /// The cheapest plane on `axis` (first of equal costs).
-    fn sweep(&self, ev: &[u64], n: usize, axis: usize, cell: &Aabb) -> Option<Choice> {
+    fn sweep(&self, ev: &[u64], n: usize, axis: usize, cell: &Bounds) -> Option<Choice> {
         let ratios = AreaRatios::new(cell, axis)?;
         // Planes strictly inside the cell, compared as position keys: the
         // key order is the position order, so no event is decoded to test it.
@@ -393,7 +393,7 @@ impl EventSah<'_> {
     fn split_events(
         &self,
         set: &Events,
-        cell: &Aabb,
+        cell: &Bounds,
         c: &Choice,
         scratch: &mut Scratch,
     ) -> (Cell, Cell) {
@@ -504,7 +504,7 @@ impl EventSah<'_> {
 }
 
 impl EventSah<'_> {
-    fn choose_events(&self, set: &Events, cell: &Aabb) -> Option<Choice> {
+    fn choose_events(&self, set: &Events, cell: &Bounds) -> Option<Choice> {
         // The cheapest; the lower axis on a tie.
         (0..3)
             .filter_map(|axis| self.sweep(set.axis(axis), set.n, axis, cell))
@@ -514,7 +514,7 @@ impl EventSah<'_> {
             })
     }
 
-    fn partition_events(&self, set: Events, cell: &Aabb, c: &Choice) -> (Cell, Cell) {
+    fn partition_events(&self, set: Events, cell: &Bounds, c: &Choice) -> (Cell, Cell) {
         // A plane that cuts off empty space (more than half the splits
         // near the leaves): one side takes every event as it is.
         match set.one_side(c) {
@@ -568,7 +568,7 @@ impl Splitter for EventSah<'_> {
         }
     }
 
-    fn choose(&self, set: &Cell, cell: &Aabb) -> Option<Choice> {
+    fn choose(&self, set: &Cell, cell: &Bounds) -> Option<Choice> {
         match set {
             Cell::Boxes(items) => binned::choose(items, cell, BINS, &self.cost),
             Cell::Events(ev) => self.choose_events(ev, cell),
@@ -576,7 +576,7 @@ impl Splitter for EventSah<'_> {
         }
     }
 
-    fn partition(&self, set: Cell, cell: &Aabb, c: &Choice) -> (Cell, Cell) {
+    fn partition(&self, set: Cell, cell: &Bounds, c: &Choice) -> (Cell, Cell) {
         match set {
             Cell::Boxes(items) => {
                 // Perfect splits: straddlers clipped to each child's cell.
@@ -616,7 +616,7 @@ mod tests {
                 }
                 Item {
                     tri,
-                    b: Aabb { min, max },
+                    b: Bounds { min, max },
                 }
             })
             .collect()
@@ -629,7 +629,7 @@ mod tests {
             cost: CostModel::from_params(&super::super::BuildParams::default()),
             sweep_max: SWEEP_MAX,
         };
-        let cell = Aabb {
+        let cell = Bounds {
             min: [0.0; 3],
             max: [8.0, 8.0, 8.0],
         };

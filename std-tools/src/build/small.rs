@@ -23,10 +23,10 @@
 //! cell is a candidate; the cheapest wins, the lowest position on a tie
 //! (the sweep goes up the axis), then the lowest axis.
 
-use super::aabb::Aabb;
 use super::boxes::Item;
 use super::cost::{least_price, AreaRatios, CostModel};
 use super::subdivide::Choice;
+use kdray_kernel::Bounds;
 
 /// Cells with fewer triangles than this are small (module docs).
 pub(super) const SMALL_MAX: usize = 16;
@@ -37,7 +37,7 @@ const _: () = assert!(SMALL_MAX <= LANES);
 
 /// The cheapest plane of the small cell `cell` holding `items` (module
 /// docs), or `None` when no box edge lies strictly inside it.
-pub(super) fn choose(items: &[Item], cell: &Aabb, cost: &CostModel) -> Option<Choice> {
+pub(super) fn choose(items: &[Item], cell: &Bounds, cost: &CostModel) -> Option<Choice> {
     // The cheapest; the lower axis on a tie. Cells of up to 8 triangles
     // (most of them) price half as many candidates as the largest.
     let on = |axis| match items.len() {
@@ -60,7 +60,7 @@ pub(super) fn choose(items: &[Item], cell: &Aabb, cost: &CostModel) -> Option<Ch
 /// per candidate.
 fn choose_on<const L: usize, const P: usize>(
     items: &[Item],
-    cell: &Aabb,
+    cell: &Bounds,
     axis: usize,
     cost: &CostModel,
 ) -> Option<Choice> {

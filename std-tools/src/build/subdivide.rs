@@ -20,11 +20,11 @@
 //! Every decision depends only on the cell and its triangles, never on
 //! which thread runs it, so the tree is the same for any thread count.
 
-use super::aabb::Aabb;
 use super::cost::CostModel;
 use super::monitor::BuildMonitor;
 use super::BuildNode;
 use kdray_kernel::Axis;
+use kdray_kernel::Bounds;
 
 /// Cells with at least this many triangles may parallelise their own
 /// tallies and partitions, in chunks of this size.
@@ -67,9 +67,9 @@ pub(super) trait Splitter: Sync {
     /// The triangle indices, sorted, for a leaf.
     fn prims(&self, set: Self::Set) -> Vec<u32>;
     /// The split plane for `cell`, or `None` to make a leaf.
-    fn choose(&self, set: &Self::Set, cell: &Aabb) -> Option<Choice>;
+    fn choose(&self, set: &Self::Set, cell: &Bounds) -> Option<Choice>;
     /// The triangles of the cells below and above the plane.
-    fn partition(&self, set: Self::Set, cell: &Aabb, c: &Choice) -> (Self::Set, Self::Set);
+    fn partition(&self, set: Self::Set, cell: &Bounds, c: &Choice) -> (Self::Set, Self::Set);
 }
 
 /// The limits of one build.
@@ -90,7 +90,7 @@ pub(super) struct Limits {
 pub(super) fn subdivide<S: Splitter>(
     s: &S,
     set: S::Set,
-    bounds: Aabb,
+    bounds: Bounds,
     limits: &Limits,
     monitor: &BuildMonitor,
 ) -> BuildNode {
@@ -114,7 +114,14 @@ struct Walk<'a, S> {
 impl<S: Splitter> Walk<'_, S> {
     /// The subtree for `cell` and its cost per ray entering the cell.
     /// `bad`: non-paying splits just above; `units`: its progress share.
-    fn node(&self, set: S::Set, cell: Aabb, depth: u32, bad: u32, units: u64) -> (BuildNode, f64) {
+    fn node(
+        &self,
+        set: S::Set,
+        cell: Bounds,
+        depth: u32,
+        bad: u32,
+        units: u64,
+    ) -> (BuildNode, f64) {
         let n = self.s.count(&set);
         if let Some(m) = self.monitor.filter(|_| n < JOIN_MIN) {
             // A small subtree (on one thread) builds without touching the

@@ -6,7 +6,7 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Through
 use kdray::kernel::Bounds;
 use kdray::kernel::{closest_hit_brute, Ray, Triangle};
 use kdray::tools::blob::{write_triangle_tree, Blob};
-use kdray::tools::build::{build, BuildParams, BuilderKind};
+use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use kdray::tools::camera::{random_rays, Camera};
 use kdray::tools::{mesh, scene};
 use std::hint::black_box;

@@ -6,7 +6,7 @@
 
 use kdray::kernel::{any_hit_brute, closest_hit_brute, Ray, Triangle};
 use kdray::tools::blob::write_triangle_tree;
-use kdray::tools::build::{build, BuildError, BuildParams, BuilderKind};
+use kdray::tools::builders::{build, BuildError, BuildParams, BuilderKind};
 use std::path::Path;
 
 use kdray::tools::rng::Rng;

@@ -5,7 +5,7 @@
 use kdray::kernel::wire::{blob_checksum, CHECKSUM_OFFSET};
 use kdray::kernel::{Axis, BlobError, Bounds, Node, Ray, Triangle, TriangleTree, MAX_DEPTH};
 use kdray::tools::blob::{write_triangle_tree, Blob};
-use kdray::tools::build::{BuildParams, BuiltTree};
+use kdray::tools::builders::{BuildParams, BuiltTree};
 use kdray::tools::rng::Rng;
 
 fn tris() -> Vec<Triangle> {
@@ -20,7 +20,7 @@ fn tris() -> Vec<Triangle> {
 fn good_blob() -> (Blob, Vec<Triangle>) {
     let t = tris();
     let built =
-        kdray::tools::build::build(&t, Default::default(), &BuildParams::default()).unwrap();
+        kdray::tools::builders::build(&t, Default::default(), &BuildParams::default()).unwrap();
     (write_triangle_tree(&built, &t).unwrap(), t)
 }
 

@@ -8,7 +8,7 @@ mod common;
 use common::{assert_matches_brute, blob, shared_meshes};
 use kdray::kernel::Bounds;
 use kdray::kernel::Triangle;
-use kdray::tools::build::BuilderKind;
+use kdray::tools::builders::BuilderKind;
 use kdray::tools::camera::{random_rays, Camera};
 use kdray::tools::{mesh, scene};
 

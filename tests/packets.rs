@@ -7,7 +7,7 @@ use kdray::kernel::{
     Hit, Packet, Packet16, Packet4, Packet8, PacketWidth, Ray, Triangle, TriangleTree,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
-use kdray::tools::build::{build, BuildParams, BuilderKind};
+use kdray::tools::builders::{build, BuildParams, BuilderKind};
 
 use kdray::tools::rng::Rng;
 

@@ -15,7 +15,7 @@ use kdray::kernel::{
     any_hit_brute, closest_hit_brute, Hit, Packet, Packet4, Packet8, Ray, Triangle, TriangleTree,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
-use kdray::tools::build::{build, BuildParams, BuilderKind};
+use kdray::tools::builders::{build, BuildParams, BuilderKind};
 
 /// Reads the fuzz input front to back; zeros past its end.
 pub struct Bytes<'a> {

@@ -1,6 +1,6 @@
 //! The blob writer, and an owned, aligned blob that lends a kernel view.
 
-use crate::build::BuiltTree;
+use crate::builders::BuiltTree;
 use crate::points::BuiltPoints;
 use kdray_kernel::wire::{
     blob_checksum, Header, CHECKSUM_OFFSET, ENDIAN_CHECK, HEADER_LEN, KIND_POINTS, MAGIC, VERSION,

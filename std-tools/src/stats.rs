@@ -1,7 +1,7 @@
 //! Tree statistics: the numbers that say whether a tree is good
 //! (the lecture: "stringy, depth 50-100, ~2 triangle leaves, big empty cells").
 
-pub use crate::build::CostModel;
+pub use crate::builders::CostModel;
 use kdray_kernel::Bounds;
 use kdray_kernel::{NodeKind, TriangleTree};
 

@@ -6,7 +6,7 @@ use glam::Vec3;
 use kdray_kernel::Bounds;
 use kdray_kernel::{PacketWidth, Triangle};
 use kdray_tools::blob::write_triangle_tree;
-use kdray_tools::build::{build, BuildParams, BuilderKind};
+use kdray_tools::builders::{build, BuildParams, BuilderKind};
 use kdray_tools::camera::Camera;
 use kdray_tools::render::{
     render, render_heatmap, BruteTracer, Image, RenderParams, TreeTracer, BACKGROUND, LEGEND_HEIGHT,

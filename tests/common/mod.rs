@@ -4,7 +4,7 @@
 
 use kdray::kernel::{any_hit_brute, closest_hit_brute, Ray, Triangle};
 use kdray::tools::blob::{write_triangle_tree, Blob};
-use kdray::tools::build::{build, BuildParams, BuilderKind};
+use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use std::path::PathBuf;
 
 /// The shared meshes folder, if present (`KDRAY_MESHES` overrides).

@@ -1,5 +1,5 @@
 //! The watertight test of one triangle against all lanes: the lane-wise
-//! twin of [`ShearedRay::intersect`](crate::ShearedRay::intersect), the
+//! twin of [`ShearedRay::intersect`](crate::triangle::ShearedRay::intersect), the
 //! same operations in the same order (no FMA, true division), so each
 //! lane's `t`, edge functions and determinant are the single ray's bits.
 //! Lanes whose `f32` edge function is exactly zero are recomputed by the

@@ -428,6 +428,7 @@ mod tests {
     use super::*;
     use crate::blob::Node;
     use crate::geometry::{Axis, Bounds};
+    use crate::test_rng::Rng;
     use crate::triangle::{any_hit_brute, closest_hit_brute};
 
     #[test]
@@ -464,13 +465,8 @@ mod tests {
             max: [1.0; 3],
         };
         let tree = TriangleTree::from_parts(&nodes, &prims, &tris, bounds).unwrap();
-        let mut seed = 0x9E37_79B9_7F4A_7C15u64;
-        let mut f = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+        let mut f = || rng.f();
         let mut hits = 0;
         for k in 0..200 {
             let origin = [f() * 1.4 - 0.2, f(), f()];

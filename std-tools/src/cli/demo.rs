@@ -7,7 +7,7 @@ use super::{thread_pool, CmdResult};
 use kdray_kernel::{closest_hit_brute, Hit};
 use kdray_kernel::{PacketWidth, TriangleTree};
 use kdray_tools::blob::write_triangle_tree;
-use kdray_tools::build::{build, BuildParams, BuilderKind};
+use kdray_tools::builders::{build, BuildParams, BuilderKind};
 use kdray_tools::camera::Camera;
 use kdray_tools::render::{render, render_heatmap, RenderParams, TreeTracer};
 use kdray_tools::scene::teapot_in_stadium;

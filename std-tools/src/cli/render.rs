@@ -7,7 +7,7 @@ use super::{thread_pool, CmdResult};
 use glam::Vec3;
 use kdray_kernel::PacketWidth;
 use kdray_tools::blob::{write_triangle_tree, Blob};
-use kdray_tools::build::{build, BuildParams, BuilderKind};
+use kdray_tools::builders::{build, BuildParams, BuilderKind};
 use kdray_tools::camera::Camera;
 use kdray_tools::mesh;
 use kdray_tools::render::{bands, render, render_heatmap, RenderParams, TreeTracer};

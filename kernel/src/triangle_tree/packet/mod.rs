@@ -19,10 +19,10 @@
 //!
 //! # Exactness
 //! Each lane starts from the single ray's own prepared numbers
-//! ([`ShearedRay`](crate::ShearedRay), [`CellRay`](crate::CellRay)), runs
+//! ([`ShearedRay`](crate::triangle::ShearedRay), [`CellRay`](super::cell_ray::CellRay)), runs
 //! the same triangle test in lanes (same operations, same order, no FMA,
 //! no approximate reciprocal, the same `f64` fallback) and keeps hits by
-//! the same [`Closest`](crate::Closest) rule; the walk applies the single
+//! the same [`Closest`](crate::triangle::Closest) rule; the walk applies the single
 //! ray's slack rule per lane, by the same code (`walk.rs` explains why the
 //! few extra cells a lane visits for its neighbours cannot change an
 //! answer). Packets whose rays disagree on a direction sign are traced

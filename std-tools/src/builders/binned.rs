@@ -6,23 +6,13 @@
 //! bin boundary, which are the candidate planes. O(N) per cell, no sort:
 //! for fast rebuilds, at a small loss of tree quality.
 
-use super::boxes::Item;
 use super::cost::{least_price, AreaRatios, CostModel};
-use super::subdivide::{Choice, PARALLEL_MIN};
+use super::item::Item;
+use super::subdivide::Choice;
+use super::thresholds::{MIN_GAIN, PARALLEL_MIN};
 use kdray_kernel::Bounds;
 use rayon::prelude::*;
 use wide::f32x8;
-
-/// The binned builder splits a cell only where the split saves at least
-/// this fraction of the leaf's cost (so it never looks ahead). Near the
-/// leaves, splits saving less were half the tree: bunny / sponza / teapot
-/// / 1M bunny tree cost with 0, 5% and 10%: 30.03 / 30.17 / 30.56, 54.92
-/// / 55.36 / 56.47, 24.88 / 25.06 / 25.53, 34.03 / 34.12 / 34.37 (the SAH
-/// builder's: 28.95, 53.34, 24.45, 33.33), nodes 142k / 104k / 72k on the
-/// bunny, build -27% at 10%; the camera and random rays trace as fast
-/// (bunny, within 1%). Without look-ahead (before this rule) the tree
-/// cost 0.04% more than with it, for 7% fewer nodes and ~10% less build.
-pub(super) const MIN_GAIN: f64 = 0.1;
 
 /// The binned builder's plane for `cell`: [`choose`]'s, if it saves
 /// [`MIN_GAIN`] of the leaf's cost.
@@ -41,22 +31,6 @@ pub(super) fn choose_saving(
     }
     choose(items, cell, bins, cost).filter(|c| c.cost.is_some_and(|x| x < most))
 }
-
-/// Cells of the binned builder with at least this many triangles cut a
-/// straddling triangle by the plane (`clip::cut_triangle`), smaller ones
-/// cut its box. The binned builder never clips exactly to the child cells
-/// (perfect splits are the SAH builder's). Bunny tree cost / build (one
-/// thread, no look-ahead, in-process): exact clipping from 16 up 29.37 /
-/// 110 ms; from 1024 and cutting triangles from 16, 29.68 / 102 ms; only
-/// cutting boxes 32.85 / 93 ms (the SAH builder's tree: 29.07). With the
-/// cheaper cut, cutting from 16 / 24 / 32: 29.68 / 29.89 / 30.03 at 83 /
-/// 80 / 76 ms (sponza 54.46 / 54.68 / 54.92, SAH 53.68, build -10% at
-/// 32; 8 cuts more and builds more nodes: 29.61, +5%). Clipping exactly
-/// in cells of 1024 and more, as this builder once did, bought 0.2% /
-/// 0.6% / 0.1% of tree cost on the bunny / sponza / 1M bunny (30.56 vs
-/// 30.63, 56.47 vs 56.83, 34.37 vs 34.42) for 4-5% of the build (bunny,
-/// one thread, best of 8 interleaved: 42.4 vs 40.4 ms).
-pub(super) const CUT_MIN: usize = 32;
 
 /// The most bins per axis: the SAH builder's large cells use 256.
 pub(super) const MAX_BINS: usize = 256;

@@ -20,16 +20,6 @@ use kdray_kernel::Triangle;
 /// 2^12 times the `f64` rounding of six clips and 2^-16 of an `f32` ulp.
 const MARGIN: f64 = 1.0 / 1_099_511_627_776.0;
 
-/// Cells with fewer triangles do not clip: a straddler's box is cut by the
-/// plane ([`cut_box`]). Clipping there was a third of the binned build and
-/// a fifth of the sweep's, and bought little: bunny tree cost, clipping
-/// everywhere / from 16 triangles up / from 32: SAH 28.87 / 29.07 / 29.47
-/// (263k / 170k / 159k nodes, build ~20% faster at 16), binned 29.22 /
-/// 29.36 / 29.74 (never: 32.79); fandisk binned 24.30 / 24.45 / 24.76.
-/// The SAH builder's threshold; the binned builder never clips, and cuts
-/// triangles by the plane ([`cut_triangle`]) from `binned::CUT_MIN`.
-pub(super) const PERFECT_MIN: usize = 16;
-
 /// Vertices of a triangle clipped by six planes: at most 3 + 6.
 const MAX_VERTICES: usize = 9;
 

@@ -10,32 +10,13 @@
 
 use super::clip::{cut_box, cut_triangle};
 use super::cost::CostModel;
-use super::subdivide::{Choice, Splitter, PARALLEL_MIN};
+use super::item::Item;
+use super::subdivide::{Choice, Splitter};
+use super::thresholds::PARALLEL_MIN;
 use super::{binned, median};
 use kdray_kernel::Bounds;
 use kdray_kernel::Triangle;
 use rayon::prelude::*;
-
-/// One triangle of a cell. Aligned to 32 bytes (4 bytes of padding): a
-/// copy is one aligned 32-byte move, where the 28-byte items were copied
-/// in three pieces and read back across them (a stalled store forward on
-/// every item a partition moved).
-#[derive(Clone, Copy, Debug)]
-#[repr(align(32))]
-pub(super) struct Item {
-    /// The triangle.
-    pub(super) tri: u32,
-    /// Its box, clipped to the cell.
-    pub(super) b: Bounds,
-}
-
-impl Item {
-    /// A placeholder, overwritten before use.
-    const NONE: Item = Item {
-        tri: 0,
-        b: Bounds::EMPTY,
-    };
-}
 
 /// How a box builder picks its plane.
 #[derive(Clone, Copy, Debug)]

@@ -19,12 +19,14 @@ mod boxes;
 mod clip;
 mod cost;
 mod events;
+mod item;
 pub mod layout;
 mod median;
 mod monitor;
 mod sah;
 mod small;
 mod subdivide;
+mod thresholds;
 
 pub use cost::CostModel;
 pub use layout::{flatten, BuildNode, Split};
@@ -32,6 +34,7 @@ pub use monitor::BuildMonitor;
 
 use kdray_kernel::{Bounds, Node, Triangle, MAX_DEPTH};
 use std::fmt;
+use thresholds::{CUT_MIN, SWEEP_MAX, SWEEP_NONE};
 
 /// The cost model and limits, with the defaults documented per field.
 #[derive(Clone, Debug, PartialEq)]
@@ -288,9 +291,9 @@ fn build_in_pool(
     let root = match kind {
         BuilderKind::Sah | BuilderKind::Sweep => {
             let sweep_max = if kind == BuilderKind::Sah {
-                sah::SWEEP_NONE
+                SWEEP_NONE
             } else {
-                sah::SWEEP_MAX
+                SWEEP_MAX
             };
             let s = sah::EventSah {
                 triangles,
@@ -309,7 +312,7 @@ fn build_in_pool(
             };
             let straddlers = (kind == BuilderKind::Binned).then_some(boxes::Straddlers {
                 triangles,
-                cut_min: binned::CUT_MIN,
+                cut_min: CUT_MIN,
             });
             let s = boxes::BoxSplitter {
                 rule,

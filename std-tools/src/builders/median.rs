@@ -3,7 +3,7 @@
 //! triangles' box centres (`median`) or at its middle (`middle`); stop at a
 //! leaf size or the depth limit. Kept only to measure the SAH against.
 
-use super::boxes::Item;
+use super::item::Item;
 use super::subdivide::Choice;
 use kdray_kernel::Bounds;
 

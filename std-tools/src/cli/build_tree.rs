@@ -5,7 +5,7 @@ use super::progress::with_bar;
 use super::report::{print_stats, stats_json};
 use super::CmdResult;
 use kdray_tools::blob::write_triangle_tree;
-use kdray_tools::build::{build_monitored, BuildMonitor, BuildParams, BuilderKind};
+use kdray_tools::builders::{build_monitored, BuildMonitor, BuildParams, BuilderKind};
 use kdray_tools::stats::{tree_stats, CostModel};
 use kdray_tools::{io, mesh};
 use std::path::PathBuf;

@@ -36,10 +36,10 @@
 //! cheaper than keeping event lists sorted that near the leaves.
 //!
 //! Two builders share this code. `sweep` (Wald & Havran's, the exact
-//! reference) bins above [`SWEEP_MAX`] triangles only: the sweep and the
+//! reference) bins above [`SWEEP_MAX`](super::thresholds::SWEEP_MAX) triangles only: the sweep and the
 //! event split are O(N) per cell but serial per axis, which left one core
 //! idle at the top of the tree. `sah`, the default, bins every cell down
-//! to [`SMALL_MAX`] triangles ([`SWEEP_NONE`]) and prices every box edge
+//! to [`SMALL_MAX`] triangles ([`SWEEP_NONE`](super::thresholds::SWEEP_NONE)) and prices every box edge
 //! exactly below: keeping event lists sorted through split after split
 //! cost more than binning the same cells, and the greedy SAH's trees came
 //! out no worse (bunny 28.95 against 29.07, sponza 53.57 against 53.70,
@@ -47,12 +47,14 @@
 //! within the noise), in 55-60% of the build time (`docs/builders.md`).
 
 use super::binned;
-use super::boxes::{self, Item};
-use super::clip::{cut_box, split_boxes, PERFECT_MIN};
+use super::boxes::{self};
+use super::clip::{cut_box, split_boxes};
 use super::cost::{AreaRatios, CostModel};
 use super::events::{self, END, PLANAR, START};
-use super::small::{self, SMALL_MAX};
+use super::item::Item;
+use super::small::{self};
 use super::subdivide::{Choice, Splitter};
+use super::thresholds::{PERFECT_MIN, SMALL_MAX};
 use kdray_kernel::Bounds;
 use kdray_kernel::Triangle;
 use std::cell::RefCell;
@@ -129,14 +131,6 @@ impl Events {
     }
 }
 
-/// The `sweep` builder's cells with at least this many triangles pick
-/// their plane by binning (module docs); smaller ones by the exact sweep.
-pub(super) const SWEEP_MAX: usize = 4096;
-
-/// The `sah` builder's `sweep_max`: no event cells, binning down to the
-/// small cells (module docs).
-pub(super) const SWEEP_NONE: usize = SMALL_MAX;
-
 /// Bins per axis in the cells binned: pricing the planes is O(bins), the
 /// tally O(N) whatever the bins, so many bins cost nothing in cells this
 /// large. Bunny / fandisk / 1M-bunny tree cost: 29.41 / 24.43 / 33.59
@@ -149,7 +143,7 @@ const BINS: usize = 256;
 pub(super) struct EventSah<'a> {
     pub(super) triangles: &'a [Triangle],
     pub(super) cost: CostModel,
-    /// [`SWEEP_MAX`] (`sweep`) or [`SWEEP_NONE`] (`sah`).
+    /// [`SWEEP_MAX`](super::thresholds::SWEEP_MAX) (`sweep`) or [`SWEEP_NONE`](super::thresholds::SWEEP_NONE) (`sah`).
     pub(super) sweep_max: usize,
 }
 
@@ -600,6 +594,7 @@ impl Splitter for EventSah<'_> {
 
 #[cfg(test)]
 mod tests {
+    use super::super::thresholds::SWEEP_MAX;
     use super::*;
     use crate::rng::Rng;
 

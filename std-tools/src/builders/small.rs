@@ -23,13 +23,11 @@
 //! cell is a candidate; the cheapest wins, the lowest position on a tie
 //! (the sweep goes up the axis), then the lowest axis.
 
-use super::boxes::Item;
 use super::cost::{least_price, AreaRatios, CostModel};
+use super::item::Item;
 use super::subdivide::Choice;
+use super::thresholds::SMALL_MAX;
 use kdray_kernel::Bounds;
-
-/// Cells with fewer triangles than this are small (module docs).
-pub(super) const SMALL_MAX: usize = 16;
 
 /// Room for every box of a small cell.
 const LANES: usize = 16;

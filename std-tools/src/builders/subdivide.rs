@@ -26,12 +26,8 @@ use super::BuildNode;
 use kdray_kernel::Axis;
 use kdray_kernel::Bounds;
 
-/// Cells with at least this many triangles may parallelise their own
-/// tallies and partitions, in chunks of this size.
-pub(super) const PARALLEL_MIN: usize = 4096;
-
 /// Cells with at least this many triangles build their two children in
-/// parallel. Far below [`PARALLEL_MIN`]: a join costs about a microsecond,
+/// parallel. Far below [`PARALLEL_MIN`](super::thresholds::PARALLEL_MIN): a join costs about a microsecond,
 /// and with subtrees of up to 4096 triangles as the smallest tasks one
 /// core sat idle for the last of them (and could not help a core slowed
 /// by other work).

@@ -15,7 +15,8 @@
 //! | [`BuilderKind::Median`] | median of the box centres, widest axis (`median`, `boxes`) | - | baseline |
 //! | [`BuilderKind::Middle`] | middle of the cell, widest axis (`median`, `boxes`) | - | baseline |
 //!
-//! Measured trees and build times: `docs/results.md`.
+//! Measured trees and build times: `docs/results.md`; the tuning
+//! thresholds, with what each alternative measured: `thresholds.rs`.
 
 mod binned;
 mod boxes;

@@ -1,5 +1,5 @@
-//! The few lane operations the packet code needs, over `wide`'s `f32x4`
-//! and `f32x8`, so one generic walk serves both widths.
+//! The few lane operations the packet and leaf code needs, over `wide`'s
+//! `f32x4`, `f32x8` and `f32x16`, so one generic walk serves every width.
 //!
 //! Only exact IEEE operations are exposed: `+ - * /` (true division, never
 //! `recip`), `abs`, comparisons, and the scalar walk's `min`/`max`

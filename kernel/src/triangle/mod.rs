@@ -165,6 +165,8 @@ impl ShearedRay {
         }
         let negative = (u < 0.0) | (v < 0.0) | (w < 0.0);
         let positive = (u > 0.0) | (v > 0.0) | (w > 0.0);
+        // Tried: every condition below folded into one branch: 12% slower,
+        // the early exits pay.
         if negative & positive {
             return None;
         }

@@ -7,12 +7,16 @@
 //! in the closed cell of some leaf that references it, so the traversal
 //! finds every hit.
 //!
-//! | builder | split plane | cost | use |
+//! | builder | split plane | trees | use |
 //! |---|---|---|---|
-//! | [`BuilderKind::Sah`] | exact SAH over all clipped box edges, O(N log N) event sweep, perfect splits | best trees | the default |
-//! | [`BuilderKind::Binned`] | SAH at bin boundaries (min-max binning) | fast | rebuilds |
-//! | [`BuilderKind::Median`] | median of box centres, widest axis | - | baseline |
-//! | [`BuilderKind::Middle`] | middle of the cell, widest axis | - | baseline |
+//! | [`BuilderKind::Sah`] | SAH with perfect splits: min-max binning (256 bins) down to cells of 16 triangles, every clipped box edge priced exactly below (`sah`, `small`, `clip`) | the best | the default |
+//! | [`BuilderKind::Sweep`] | exact SAH with perfect splits: Wald & Havran's O(N log N) event sweep below 4096 triangles, binning above (`sah`, `events`, `small`, `clip`) | as good, slower to build | the reference |
+//! | [`BuilderKind::Binned`] | SAH at 32 bin boundaries and the boxes' extremes; a split only where it saves a tenth of the leaf's cost; straddlers cut by the plane (`binned`, `boxes`) | a few % dearer, ~3x faster to build | rebuilds |
+//! | [`BuilderKind::Median`] | median of the box centres, widest axis (`median`, `boxes`) | - | baseline |
+//! | [`BuilderKind::Middle`] | middle of the cell, widest axis (`median`, `boxes`) | - | baseline |
+//!
+//! Measured trees and build times: `docs/results.md`; the tuning
+//! thresholds, with what each alternative measured: `thresholds.rs`.
 
 mod binned;
 mod boxes;
@@ -41,12 +45,10 @@ use thresholds::{CUT_MIN, SWEEP_MAX, SWEEP_NONE};
 pub struct BuildParams {
     /// Cost of one traversal step (C_trav). Default 1.0.
     pub traversal_cost: f32,
-    /// Cost of one ray/triangle test (C_isect). Default 0.5, measured on
-    /// the bunny (camera and random rays, one core): 1.5 built 807k nodes
-    /// (158 B/triangle, 7.3 references per triangle) and traced camera rays
-    /// no faster; 0.5 builds 262k nodes (82 B/triangle) and traces random
-    /// rays about 1.3x faster, the smaller tree missing the cache less.
-    /// Lower still (0.25) trades more triangle tests for little gain.
+    /// Cost of one ray/triangle test (C_isect). Default 0.5: against 1.5,
+    /// a tree of a third of the nodes that traces camera rays as fast and
+    /// random rays faster (the smaller tree misses the cache less); lower
+    /// still (0.25) trades more triangle tests for little gain.
     pub intersection_cost: f32,
     /// Fraction of the cost forgiven when one side of a split is empty
     /// (the lecture's "big empty cells"). Default 0.2.
@@ -61,10 +63,9 @@ pub struct BuildParams {
     /// splits only where a split saves a tenth of the leaf's cost.
     pub lookahead: u32,
     /// How much dearer than a leaf a split may be and still be looked
-    /// ahead of, as a factor of the leaf's cost. Default 1.05: on the bunny
-    /// and sponza, of the 70,000 look-ahead splits dearer than that, 460
-    /// paid off (0.7%), while they were three quarters of the subtrees
-    /// built and thrown away (a quarter of all cells built).
+    /// ahead of, as a factor of the leaf's cost. Default 1.05: look-ahead
+    /// splits dearer than that paid off less than one time in a hundred
+    /// (bunny, sponza), yet were most of the subtrees built and thrown away.
     pub lookahead_margin: f32,
     /// Cells whose largest extent is below this fraction of the scene's are
     /// leaves. Default 2^-20: far below any useful cell, well above the
@@ -110,8 +111,8 @@ impl BuildParams {
 pub enum BuilderKind {
     /// SAH with perfect splits (the default): min-max binning with 256
     /// bins down to cells of 16 triangles, every clipped box edge priced
-    /// below. As good trees as [`Sweep`](BuilderKind::Sweep)'s (the bunny's
-    /// costs 28.95 against 29.07), built in 55-60% of its time.
+    /// below. Trees as good as [`Sweep`](BuilderKind::Sweep)'s, in about
+    /// 60% of its build time.
     #[default]
     Sah,
     /// Exact SAH over every clipped box edge: Wald & Havran's O(N log N)

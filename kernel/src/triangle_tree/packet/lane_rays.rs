@@ -9,8 +9,7 @@
 //! subnormal) and whose slab distances are numbers: there, none of the
 //! scalar code's NaN and infinity branches is taken. A packet with any
 //! other valid lane is prepared lane by lane by the scalar code itself.
-//! (Measured on the bunny's camera tiles: the scalar set-up was ~21% of an
-//! 8-wide trace.)
+//! (The scalar set-up for every packet was ~21% of an 8-wide camera trace.)
 //!
 //! `t0`/`t1` may differ from the scalar ones in the sign of a zero (the
 //! lane `min`/`max` pick either of two equal operands): the walk only
@@ -74,7 +73,8 @@ pub(crate) struct LaneRays<V, const N: usize> {
     slack: V,
 }
 
-/// One lane as a single ray: lanes left alone in a subtree finish so.
+/// One lane as its single ray: each lane of a packet that does not walk
+/// together is traced so, from the root (`LaneRays::alone`).
 #[derive(Clone, Copy)]
 pub(crate) struct Single {
     pub(crate) sr: ShearedRay,
@@ -112,9 +112,8 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
     /// the cheap test, before any lane is prepared, that the packet can
     /// walk together (`LaneRays::coherent` is the exact one). Random rays
     /// almost never pass it and are traced as single rays without the
-    /// packet set-up (measured on the bunny's random rays, interleaved:
-    /// 8-wide packets went from 0.85-1.02x to 0.98-1.2x single rays;
-    /// camera tiles unchanged). A lane's bitmask is its sign bit.
+    /// packet set-up, so a packet of random rays costs what its single
+    /// rays cost. A lane's bitmask is its sign bit.
     #[inline(always)]
     pub(crate) fn signs_agree(cols: &Columns<V>) -> bool {
         cols.dir.iter().all(|d| {

@@ -141,11 +141,10 @@ pub enum PacketWidth {
     #[default]
     Eight,
     /// Packets of 16 (`f32x16`): one AVX-512 register per lane vector,
-    /// where the walk's per-node work is that of 8 lanes and serves
-    /// twice the rays (bunny camera tiles: ~1.35x the rays per second of
-    /// 8 lanes, `docs/packets.md`). Built without AVX-512 the slice entry
-    /// points trace these slices 8 rays at a time (16 lanes would be two
-    /// registers per operation, no faster); the answers are the same.
+    /// where a node step costs about what it costs for 8 lanes and serves
+    /// twice the rays (`docs/results.md`). Built without AVX-512 the slice
+    /// entry points trace these slices 8 rays at a time (16 lanes would be
+    /// two registers per operation, no faster); the answers are the same.
     Sixteen,
 }
 
@@ -381,9 +380,8 @@ impl<'a> TriangleTree<'a> {
 /// Whether the slice entry points trace `PacketWidth::Sixteen` in 16
 /// lanes: where an `f32x16` is one register (AVX-512). Elsewhere `wide`
 /// splits it into two `f32x8` or four `f32x4` per operation, and 8-lane
-/// packets are as fast or faster (bunny camera tiles, an AVX2 build on
-/// the same machine: 16 lanes 0.614 s, 8 lanes 0.600 s), so those
-/// slices go 8 at a time.
+/// packets are as fast or faster (an AVX2 build: 16 lanes 2% slower), so
+/// those slices go 8 at a time.
 const SIXTEEN_LANES: bool = cfg!(target_feature = "avx512f");
 
 /// A query the slice entry points run, as a single ray and over lanes.
@@ -439,7 +437,8 @@ impl SliceQuery for AnyHit {
 /// Traces `rays` in packets of `N` consecutive rays (the last one partly
 /// inactive) and writes each lane's answer to `out`; packets whose rays
 /// disagree on a direction sign go ray by ray through `one`. Out of line:
-/// one function per width and query, each with its own registers.
+/// one function per width and query, each with its own registers (with a
+/// third width inlined into `slice_with`, the 8-wide walk lost ~5%).
 #[inline(never)]
 fn in_packets<V: Lanes<N>, T: Copy, const N: usize>(
     tree: &TriangleTree<'_>,

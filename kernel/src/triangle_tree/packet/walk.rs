@@ -18,15 +18,48 @@
 //! lane), which cannot change its answer: triangles are tested over the
 //! lane's own `[tmin, best t]` and [`Closest`] does not depend on the order
 //! in which hits arrive. Packets whose lanes disagree on a sign are traced
-//! lane by lane as single rays (`Visit::single`); a coherent packet walks
+//! lane by lane as single rays (`LaneRays::alone`); a coherent packet walks
 //! in lanes to the end, even with one lane left.
 //!
-//! Tried and slower (camera rays on the bunny, one run, pinned): per-lane
-//! near/far for mixed-sign packets (each lane's near child chosen by lane
-//! masks and blends of the pushed intervals): random rays ran at ~0.6-0.8x
-//! single rays, coherent ones gained nothing from it. Selects instead of
-//! the near-or-far branch (node, lanes and interval picked by masks): 8-wide
-//! camera tiles ~15-40% slower, as conditional moves were for single rays.
+//! Where the time goes (8-wide bunny camera tiles): ~28 interior steps per
+//! packet (~40% of the time; 71% of them send every lane to the same
+//! child), ~10 triangle tests (~35%), set-up and output (~15-20%). The step
+//! is bound by its node-to-node chain, as the single ray's is.
+
+// Tried and dropped (8-wide bunny camera tiles unless said, interleaved,
+// hits identical every time):
+// - per-lane near/far for mixed-sign packets (each lane's near child by
+//   masks and blends): random rays ~0.6-0.8x single rays, camera no gain;
+// - selects instead of the near-or-far branch: 15-40% slower, as
+//   conditional moves were for single rays;
+// - a branch-free step (both children's `t_split` one step ahead, the next
+//   node picked by selects): 14% slower, the selects' chain costs more
+//   than the mispredictions it saves;
+// - a leaner one-sided step (push only when both children are visited):
+//   3.5% slower; the unconditional push stays;
+// - a frustum walk (one scalar interval for the packet, bounds of every
+//   lane's `t_split`, every lane tested in leaves): exact, but 20% slower:
+//   its scalar step took as long as the lane step, and the per-packet
+//   reductions came on top;
+// - two packets walked in lockstep (two chains overlapped): 5% slower, two
+//   walks' state does not fit the registers;
+// - entry points for groups of packets (one lane's path replayed by the
+//   next seven packets): 2% slower, plus 5% for the walk's start-anywhere
+//   form; the shared descent is ~7 of ~30 steps;
+// - the descent as an inner loop ending at a leaf, or out of line: no
+//   gain (4-wide 3% slower);
+// - the child pair read once and indexed by the near bit: 11% slower;
+//   loading the far child's children ahead as a prefetch: 3% slower;
+// - unchecked node and stack reads: slower; the stack index taken modulo
+//   `MAX_DEPTH`: ~1%, not worth wrapped entries;
+// - going straight through nodes with an empty child (no `t_split`, all
+//   lanes kept): 4.8x slower, the lanes lose their culling; the empty-child
+//   drop as a mask, or children by index arithmetic: no gain;
+// - leaves without the early exit when no lane passes: 6% slower;
+// - finishing a lone lane as a single ray: 3-11% slower once empty cells
+//   were skipped at the parent (up to two lanes: 13% slower still).
+// Not built: a mailbox (0.8 of ~10 triangle tests per packet repeat one,
+// about what the check would cost).
 
 use super::super::walk::LeafIter;
 use super::super::TriangleTree;
@@ -264,14 +297,12 @@ impl<'a> TriangleTree<'a> {
             let axis = node.axis_bits();
             // Even one lane left in a subtree walks on in lanes: finishing
             // it as a single ray (its own set-up and stack) cost more than
-            // the packet steps it saved once empty cells were skipped at
-            // their parent (bunny camera tiles, task-clock, interleaved:
-            // 8-wide 712 -> 687 ms, 4-wide 1081 -> 964 ms; before that
-            // skip, finishing one lane alone had paid).
+            // the packet steps it saved, once empty cells were skipped at
+            // their parent (3-11% slower).
             let step = if let (Some(&org), Some(&inv)) = (lr.org.get(axis), lr.inv.get(axis)) {
                 // Compute parametric distance along each lane to the split plane.
                 let t_split = (V::splat(node.split()) - org) * inv;
-                // The single ray's rule lane by lane (`traverse.rs`): a
+                // The single ray's rule lane by lane (`../walk.rs`): a
                 // lane visits its near child unless t_split < lo, its far
                 // child unless it visits the near one and t_split > hi. A
                 // NaN t_split visits both.

@@ -56,7 +56,16 @@ pub(crate) fn validate_nodes_with(
     let mut max_depth = 0;
     while len > 0 {
         len -= 1;
-        let (i, depth) = stack[len];
+        // `get`: `len` is in range (pushes are checked below), but the
+        // optimiser cannot see it, and an index would leave a panic path
+        // (firmware/ links only without one).
+        let Some(&(i, depth)) = stack.get(len) else {
+            return Err(BlobError::TooDeep {
+                node: 0,
+                depth: len as u32,
+                max: MAX_DEPTH,
+            });
+        };
         if depth > MAX_DEPTH {
             return Err(BlobError::TooDeep {
                 node: i,

@@ -381,9 +381,14 @@ impl<'a> TriangleTree<'a> {
                     return false;
                 }
                 sp -= 1;
+                // `get`, not an index: the optimiser cannot see `sp` in range,
+                // and an index would leave a panic path (firmware/).
+                let Some(slot) = stack.get(sp) else {
+                    return false;
+                };
                 // SAFETY: `sp` was above this entry, so it was written
                 // (the invariant where `stack` is declared).
-                let p = unsafe { stack[sp].assume_init() };
+                let p = unsafe { slot.assume_init() };
                 if p.lo <= cutoff {
                     let Some(&n) = self.nodes.get(p.node as usize) else {
                         return false;

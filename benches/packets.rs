@@ -16,8 +16,9 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Through
 use glam::Vec3;
 use kdray::kernel::{Hit, PacketWidth, Ray, TriangleTree};
 use kdray::tools::blob::{write_triangle_tree, Blob};
-use kdray::tools::build::{build, BuildParams, BuilderKind};
+use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use kdray::tools::mesh;
+use kdray::tools::rng::Rng;
 use std::hint::black_box;
 use std::path::Path;
 
@@ -28,14 +29,6 @@ const WIDTHS: [(PacketWidth, &str); 4] = [
     (PacketWidth::Eight, "8"),
     (PacketWidth::Sixteen, "16"),
 ];
-
-/// A deterministic LCG in [0, 1).
-fn lcg(s: &mut u64) -> f32 {
-    *s = s
-        .wrapping_mul(6364136223846793005)
-        .wrapping_add(1442695040888963407);
-    ((*s >> 40) as f32) / (1u64 << 24) as f32
-}
 
 /// Camera rays framing `lo..hi` from the front (+z), in 4x2 tiles.
 fn camera_rays(lo: Vec3, hi: Vec3) -> Vec<Ray> {
@@ -73,11 +66,12 @@ fn shadow_rays(tree: &TriangleTree, camera: &[Ray], light: Vec3) -> Vec<Ray> {
 }
 
 fn random_rays(lo: Vec3, hi: Vec3, n: usize) -> Vec<Ray> {
-    let mut s = 42;
+    let mut rng = Rng::new(42);
+    let mut f = || rng.f32();
     (0..n)
         .map(|_| {
-            let o = lo + (hi - lo) * Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s));
-            let d = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) - 0.5;
+            let o = lo + (hi - lo) * Vec3::new(f(), f(), f());
+            let d = Vec3::new(f(), f(), f()) - 0.5;
             Ray::new(o, d)
         })
         .collect()
@@ -91,7 +85,7 @@ fn bench(c: &mut Criterion) {
     }
     let tris = mesh::load(&path).expect("bunny loads");
     let built = build(&tris, BuilderKind::Sah, &BuildParams::default()).expect("bunny builds");
-    let blob: Blob = write_triangle_tree(&built, &tris);
+    let blob: Blob = write_triangle_tree(&built, &tris).expect("the bench tree fits a blob");
     let tree = blob.tree().expect("blob validates");
     let (lo, hi) = (Vec3::from(built.bounds.min), Vec3::from(built.bounds.max));
     let camera = camera_rays(lo, hi);

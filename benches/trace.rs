@@ -3,15 +3,16 @@
 //! Compare the ratio within one run; the machine is shared and noisy.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use kdray::kernel::Bounds;
 use kdray::kernel::{closest_hit_brute, Ray, Triangle};
 use kdray::tools::blob::{write_triangle_tree, Blob};
-use kdray::tools::build::{build, Aabb, BuildParams, BuilderKind};
+use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use kdray::tools::camera::{random_rays, Camera};
 use kdray::tools::{mesh, scene};
 use std::hint::black_box;
 use std::path::PathBuf;
 
-fn scenes() -> Vec<(String, Vec<Triangle>, Aabb)> {
+fn scenes() -> Vec<(String, Vec<Triangle>, Bounds)> {
     let s = scene::teapot_in_stadium();
     let mut out = vec![("teapot-stadium".to_string(), s.triangles, s.focus)];
     let bunny = PathBuf::from(concat!(
@@ -20,9 +21,7 @@ fn scenes() -> Vec<(String, Vec<Triangle>, Aabb)> {
     ));
     match mesh::load(&bunny) {
         Ok(t) => {
-            let b = t
-                .iter()
-                .fold(Aabb::EMPTY, |b, x| b.union(&Aabb::of_triangle(x)));
+            let b = t.iter().fold(Bounds::EMPTY, |b, x| b.union(&x.bounds()));
             out.push(("bunny".to_string(), t, b));
         }
         Err(e) => eprintln!("bunny skipped: {e}"),
@@ -33,11 +32,9 @@ fn scenes() -> Vec<(String, Vec<Triangle>, Aabb)> {
 fn trace(c: &mut Criterion) {
     for (name, tris, focus) in scenes() {
         let built = build(&tris, BuilderKind::default(), &BuildParams::default()).unwrap();
-        let blob: Blob = write_triangle_tree(&built, &tris);
+        let blob: Blob = write_triangle_tree(&built, &tris).expect("the bench tree fits a blob");
         let tree = blob.tree().unwrap();
-        let bounds = tris
-            .iter()
-            .fold(Aabb::EMPTY, |b, x| b.union(&Aabb::of_triangle(x)));
+        let bounds = tris.iter().fold(Bounds::EMPTY, |b, x| b.union(&x.bounds()));
         let sets: [(&str, Vec<Ray>); 2] = [
             ("camera", Camera::framing(&focus).rays(256, 256)),
             ("random", random_rays(&bounds, 65_536, 1)),

@@ -6,7 +6,7 @@
 
 use kdray::kernel::{any_hit_brute, closest_hit_brute, Ray, Triangle};
 use kdray::tools::blob::write_triangle_tree;
-use kdray::tools::build::{build, BuildError, BuildParams, BuilderKind};
+use kdray::tools::builders::{build, BuildError, BuildParams, BuilderKind};
 use std::path::Path;
 
 use kdray::tools::rng::Rng;
@@ -20,7 +20,7 @@ fn check_all(name: &str, tris: &[Triangle], rays: &[Ray]) -> usize {
     let mut hits = 0;
     for kind in BuilderKind::ALL {
         let built = build(tris, kind, &BuildParams::default()).unwrap();
-        let blob = write_triangle_tree(&built, tris);
+        let blob = write_triangle_tree(&built, tris).unwrap();
         let tree = blob
             .tree()
             .unwrap_or_else(|e| panic!("{name}/{}: {e}", kind.name()));

@@ -35,8 +35,7 @@ fn v1_blob_loads_in_place_and_answers_exactly() {
 #[test]
 fn unchecked_loading_gives_the_same_answers() {
     let checked = TriangleTree::from_bytes(&CUBE_V1.bytes).unwrap();
-    // SAFETY: the same bytes passed `from_bytes` just above.
-    let unchecked = unsafe { TriangleTree::from_bytes_unchecked(&CUBE_V1.bytes) }.unwrap();
+    let unchecked = TriangleTree::from_bytes_unchecked(&CUBE_V1.bytes).unwrap();
     for r in rays() {
         assert_eq!(
             checked.closest_hit(&r).bits(),

@@ -5,7 +5,7 @@
 use kdray::kernel::wire::{blob_checksum, CHECKSUM_OFFSET};
 use kdray::kernel::{Axis, BlobError, Bounds, Node, Ray, Triangle, TriangleTree, MAX_DEPTH};
 use kdray::tools::blob::{write_triangle_tree, Blob};
-use kdray::tools::build::{BuildParams, BuiltTree};
+use kdray::tools::builders::{BuildParams, BuiltTree};
 use kdray::tools::rng::Rng;
 
 fn tris() -> Vec<Triangle> {
@@ -20,8 +20,8 @@ fn tris() -> Vec<Triangle> {
 fn good_blob() -> (Blob, Vec<Triangle>) {
     let t = tris();
     let built =
-        kdray::tools::build::build(&t, Default::default(), &BuildParams::default()).unwrap();
-    (write_triangle_tree(&built, &t), t)
+        kdray::tools::builders::build(&t, Default::default(), &BuildParams::default()).unwrap();
+    (write_triangle_tree(&built, &t).unwrap(), t)
 }
 
 /// A blob with the given nodes and primitive runs over [`tris`], checksum right.
@@ -36,7 +36,7 @@ fn crafted(nodes: Vec<Node>, prims: Vec<u32>, max_depth: u32) -> Blob {
         },
         max_depth,
     };
-    write_triangle_tree(&tree, &t)
+    write_triangle_tree(&tree, &t).unwrap()
 }
 
 fn err(blob: &Blob) -> BlobError {
@@ -286,7 +286,7 @@ fn triangles_outside_the_bounds_are_refused() {
         },
         max_depth: 0,
     };
-    let e = err(&write_triangle_tree(&tree, &t));
+    let e = err(&write_triangle_tree(&tree, &t).unwrap());
     assert!(matches!(e, BlobError::ItemOutsideBounds { .. }), "{e}");
     let tree = BuiltTree {
         bounds: Bounds {
@@ -295,7 +295,10 @@ fn triangles_outside_the_bounds_are_refused() {
         },
         ..tree
     };
-    assert_eq!(err(&write_triangle_tree(&tree, &t)), BlobError::BadBounds);
+    assert_eq!(
+        err(&write_triangle_tree(&tree, &t).unwrap()),
+        BlobError::BadBounds
+    );
 }
 
 #[test]

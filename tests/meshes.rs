@@ -6,19 +6,19 @@
 mod common;
 
 use common::{assert_matches_brute, blob, shared_meshes};
+use kdray::kernel::Bounds;
 use kdray::kernel::Triangle;
-use kdray::tools::build::{Aabb, BuilderKind};
+use kdray::tools::builders::BuilderKind;
 use kdray::tools::camera::{random_rays, Camera};
 use kdray::tools::{mesh, scene};
 
-fn bounds(tris: &[Triangle]) -> Aabb {
-    tris.iter()
-        .fold(Aabb::EMPTY, |b, t| b.union(&Aabb::of_triangle(t)))
+fn bounds(tris: &[Triangle]) -> Bounds {
+    tris.iter().fold(Bounds::EMPTY, |b, t| b.union(&t.bounds()))
 }
 
 /// Camera rays framing the mesh plus random rays through its box; fewer
 /// for big meshes so brute force stays quick.
-fn check_scene(name: &str, tris: &[Triangle], focus: &Aabb) {
+fn check_scene(name: &str, tris: &[Triangle], focus: &Bounds) {
     let side = if tris.len() > 100_000 { 24 } else { 40 };
     let mut rays = Camera::framing(focus).rays(side, side);
     rays.extend(random_rays(&bounds(tris), side as usize * 20, 5));

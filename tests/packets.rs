@@ -7,7 +7,7 @@ use kdray::kernel::{
     Hit, Packet, Packet16, Packet4, Packet8, PacketWidth, Ray, Triangle, TriangleTree,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
-use kdray::tools::build::{build, BuildParams, BuilderKind};
+use kdray::tools::builders::{build, BuildParams, BuilderKind};
 
 use kdray::tools::rng::Rng;
 
@@ -36,7 +36,9 @@ fn scene(rng: &mut Rng, n: usize, grid: bool) -> Vec<Triangle> {
 fn blobs(tris: &[Triangle]) -> Vec<Blob> {
     BuilderKind::ALL
         .iter()
-        .map(|&k| write_triangle_tree(&build(tris, k, &BuildParams::default()).unwrap(), tris))
+        .map(|&k| {
+            write_triangle_tree(&build(tris, k, &BuildParams::default()).unwrap(), tris).unwrap()
+        })
         .collect()
 }
 

@@ -15,7 +15,7 @@ use kdray::kernel::{
     any_hit_brute, closest_hit_brute, Hit, Packet, Packet4, Packet8, Ray, Triangle, TriangleTree,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
-use kdray::tools::build::{build, BuildParams, BuilderKind};
+use kdray::tools::builders::{build, BuildParams, BuilderKind};
 
 /// Reads the fuzz input front to back; zeros past its end.
 pub struct Bytes<'a> {
@@ -186,7 +186,7 @@ pub fn blob(data: &[u8]) {
 /// Builds `tris` with `kind`; `None` when the builder refuses them.
 fn blob_of(tris: &[Triangle], kind: BuilderKind) -> Option<Blob> {
     let built = build(tris, kind, &BuildParams::default()).ok()?;
-    Some(write_triangle_tree(&built, tris))
+    write_triangle_tree(&built, tris).ok()
 }
 
 /// Asserts every lane of `p` equals its single ray, bit for bit (inactive

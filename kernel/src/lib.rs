@@ -8,7 +8,8 @@
 //! - [`TriangleTree::closest_hit`] and [`TriangleTree::any_hit`] trace one
 //!   ray with the lecture's non-recursive loop on a fixed stack of
 //!   [`MAX_DEPTH`] entries; [`TriangleTree::closest_hit8`] and friends
-//!   ([`packet`]) trace 4, 8 or 16 rays at once with the same answers.
+//!   ([`Packet8`] and friends) trace 4, 8 or 16 rays at once with the same
+//!   answers.
 //! - [`PointTree::from_bytes`] does the same for a point tree, which
 //!   answers [`PointTree::nearest`], [`PointTree::knn`] and
 //!   [`PointTree::within`] exactly as brute force does.
@@ -69,30 +70,24 @@
 #![deny(missing_docs)]
 #![warn(clippy::std_instead_of_core, clippy::alloc_instead_of_core)]
 
-mod error;
-mod leaf_lanes;
-pub mod node;
-pub mod packet;
+// The layers, each importing only from those above it in this list
+// (docs/architecture.md): geometry -> lanes -> triangle -> blob ->
+// triangle_tree, points.
+mod blob;
+mod geometry;
+mod lanes;
 mod points;
-mod ray;
 #[cfg(test)]
 mod test_rng;
-mod traverse;
-mod tree;
 mod triangle;
-pub mod wire;
+mod triangle_tree;
 
-pub use error::BlobError;
-pub use node::{Axis, Node, NodeKind};
-pub use packet::{Packet, Packet16, Packet4, Packet8, PacketWidth};
+pub use blob::{node, wire, BlobError, Node, NodeKind, WriteError, MAX_DEPTH};
+pub use geometry::{ray_is_valid, Axis, Bounds, Hit, Ray, MISS, OCCLUDED};
 pub use points::{
     distance2, knn_brute, nearest_brute, within_brute, BufferTooSmall, Neighbour, PointTree,
 };
-pub use ray::{Hit, Ray, MISS, OCCLUDED};
-pub use traverse::{CellRay, Closest, TraversalCounts, SLACK};
-pub use tree::{Bounds, TriangleTree, MAX_DEPTH};
-pub use triangle::{
-    any_hit_brute, closest_hit_brute, edge_functions_f64, ray_is_valid, ShearedRay, Triangle,
-    TriangleHit,
-};
+pub use triangle::{any_hit_brute, closest_hit_brute, Triangle};
+pub use triangle_tree::packet::{Packet, Packet16, Packet4, Packet8, PacketWidth};
+pub use triangle_tree::{TraversalCounts, TriangleTree};
 pub use wire::Aligned;

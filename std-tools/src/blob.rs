@@ -1,12 +1,11 @@
 //! The blob writer, and an owned, aligned blob that lends a kernel view.
 
-use crate::build::BuiltTree;
+use crate::builders::BuiltTree;
 use crate::points::BuiltPoints;
 use kdray_kernel::wire::{
-    blob_checksum, Header, CHECKSUM_OFFSET, ENDIAN_CHECK, HEADER_LEN, KIND_POINTS, KIND_TRIANGLES,
-    MAGIC, VERSION,
+    blob_checksum, Header, CHECKSUM_OFFSET, ENDIAN_CHECK, HEADER_LEN, KIND_POINTS, MAGIC, VERSION,
 };
-use kdray_kernel::{BlobError, Bounds, PointTree, Triangle, TriangleTree};
+use kdray_kernel::{BlobError, Bounds, PointTree, Triangle, TriangleTree, WriteError};
 use std::path::Path;
 
 /// Blob bytes held in `u32` words, so they are always 4-byte aligned and
@@ -83,28 +82,27 @@ impl Blob {
     }
 }
 
-/// Serialises a built tree and its triangles: header, nodes, primitive
-/// indices, triangles (`kdray_kernel::wire`). Written in the host's byte
-/// order, little-endian on every platform kdray supports; a big-endian
-/// reader refuses the blob by its check word. The same input gives the
-/// same bytes on every run.
-#[must_use]
-pub fn write_triangle_tree(tree: &BuiltTree, triangles: &[Triangle]) -> Blob {
-    assemble(
-        Counts {
-            kind: KIND_TRIANGLES,
-            max_depth: tree.max_depth,
-            nodes: tree.nodes.len(),
-            indices: tree.prims.len(),
-            items: triangles.len(),
-        },
+/// Serialises a built tree and its triangles into an aligned blob, by the
+/// kernel's writer ([`TriangleTree::write_parts_to`], the format's one
+/// definition). The same input gives the same bytes on every run.
+///
+/// # Errors
+/// [`WriteError`] when a count does not fit the format's 32-bit fields.
+pub fn write_triangle_tree(tree: &BuiltTree, triangles: &[Triangle]) -> Result<Blob, WriteError> {
+    let len = TriangleTree::write_parts_len(&tree.nodes, &tree.prims, triangles)?;
+    let mut words = vec![0u32; len.div_ceil(4)];
+    let written = TriangleTree::write_parts_to(
+        &tree.nodes,
+        &tree.prims,
+        triangles,
         tree.bounds,
-        &[
-            bytemuck::cast_slice(&tree.nodes),
-            &tree.prims,
-            bytemuck::cast_slice(triangles),
-        ],
-    )
+        tree.max_depth,
+        bytemuck::cast_slice_mut(&mut words),
+    )?;
+    Ok(Blob {
+        words,
+        len: written,
+    })
 }
 
 /// Serialises a built point tree: header, nodes, point indices, points in

@@ -1,8 +1,8 @@
 //! A pinhole camera and the ray sets the CLI, tests and benches share.
 
-use crate::build::Aabb;
 use crate::rng::Rng;
 use glam::Vec3;
+use kdray_kernel::Bounds;
 use kdray_kernel::Ray;
 
 /// A pinhole camera.
@@ -21,7 +21,7 @@ pub struct Camera {
 impl Camera {
     /// A camera framing `focus` from the front-right-above, the whole box in view.
     #[must_use]
-    pub fn framing(focus: &Aabb) -> Camera {
+    pub fn framing(focus: &Bounds) -> Camera {
         let lo = Vec3::from(focus.min);
         let hi = Vec3::from(focus.max);
         let center = (lo + hi) * 0.5;
@@ -63,7 +63,7 @@ impl Camera {
 /// `n` rays with origins uniform in `bounds` and directions uniform on the
 /// sphere (the incoherent case), from `seed`.
 #[must_use]
-pub fn random_rays(bounds: &Aabb, n: usize, seed: u64) -> Vec<Ray> {
+pub fn random_rays(bounds: &Bounds, n: usize, seed: u64) -> Vec<Ray> {
     let mut rng = Rng::new(seed);
     (0..n)
         .map(|_| {

@@ -4,7 +4,7 @@
 //! tree statistics, and the `kdray` command-line tool built on them.
 //!
 //! ```text
-//! mesh file -> mesh::load -> triangles -> build::build -> BuiltTree
+//! mesh file -> mesh::load -> triangles -> builders::build -> BuiltTree
 //!           -> blob::write_triangle_tree -> Blob -> Blob::tree() -> kernel queries
 //! .pts file -> io::read_records -> points::build_points -> BuiltPoints
 //!           -> blob::write_point_tree -> Blob -> Blob::point_tree() -> kernel queries
@@ -13,7 +13,7 @@
 #![deny(missing_docs)]
 
 pub mod blob;
-pub mod build;
+pub mod builders;
 pub mod camera;
 pub mod io;
 pub mod mesh;

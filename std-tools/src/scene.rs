@@ -4,7 +4,7 @@
 //! the lecture says k-d trees handle and octrees do not. Generated, so the
 //! project needs no mesh file to run.
 
-use crate::build::Aabb;
+use kdray_kernel::Bounds;
 use kdray_kernel::Triangle;
 use std::f32::consts::TAU;
 
@@ -14,7 +14,7 @@ pub struct Scene {
     /// All triangles: the knot first, then the stadium.
     pub triangles: Vec<Triangle>,
     /// The bounds of the knot (what a camera should frame).
-    pub focus: Aabb,
+    pub focus: Bounds,
 }
 
 /// The knot's path: a (2, 3) torus knot of major radius 1.
@@ -82,10 +82,10 @@ fn rect(a: [f32; 3], b: [f32; 3]) -> [Triangle; 2] {
 
 /// The bounding box of `triangles`.
 #[must_use]
-pub fn bounds_of(triangles: &[Triangle]) -> Aabb {
+pub fn bounds_of(triangles: &[Triangle]) -> Bounds {
     triangles
         .iter()
-        .fold(Aabb::EMPTY, |b, t| b.union(&Aabb::of_triangle(t)))
+        .fold(Bounds::EMPTY, |b, t| b.union(&t.bounds()))
 }
 
 /// A closed box on the floor `y = 0`: `2 * half` wide in x and z, `height`

@@ -1,8 +1,8 @@
 //! Tree statistics: the numbers that say whether a tree is good
 //! (the lecture: "stringy, depth 50-100, ~2 triangle leaves, big empty cells").
 
-use crate::build::Aabb;
-pub use crate::build::CostModel;
+pub use crate::builders::CostModel;
+use kdray_kernel::Bounds;
 use kdray_kernel::{NodeKind, TriangleTree};
 
 /// Statistics of a triangle tree.
@@ -42,7 +42,7 @@ pub struct TreeStats {
 #[must_use]
 pub fn tree_stats(tree: &TriangleTree<'_>, cost: CostModel) -> TreeStats {
     let b = tree.bounds();
-    let root = Aabb {
+    let root = Bounds {
         min: b.min,
         max: b.max,
     };

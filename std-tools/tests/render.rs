@@ -3,9 +3,10 @@
 //! shadows), and packets of 4 and 8 render exactly what single rays do.
 
 use glam::Vec3;
+use kdray_kernel::Bounds;
 use kdray_kernel::{PacketWidth, Triangle};
 use kdray_tools::blob::write_triangle_tree;
-use kdray_tools::build::{build, Aabb, BuildParams, BuilderKind};
+use kdray_tools::builders::{build, BuildParams, BuilderKind};
 use kdray_tools::camera::Camera;
 use kdray_tools::render::{
     render, render_heatmap, BruteTracer, Image, RenderParams, TreeTracer, BACKGROUND, LEGEND_HEIGHT,
@@ -31,16 +32,15 @@ fn floor_and_tetrahedron() -> Vec<Triangle> {
     ]
 }
 
-fn bounds(tris: &[Triangle]) -> Aabb {
-    tris.iter()
-        .fold(Aabb::EMPTY, |b, t| b.union(&Aabb::of_triangle(t)))
+fn bounds(tris: &[Triangle]) -> Bounds {
+    tris.iter().fold(Bounds::EMPTY, |b, t| b.union(&t.bounds()))
 }
 
 /// Renders `tris` seen by `camera` with the tree at every packet width and
 /// by brute force, and checks all four pictures are the same.
 fn check_tree_matches_brute(tris: &[Triangle], camera: Camera, w: u32, h: u32) -> Image {
     let built = build(tris, BuilderKind::default(), &BuildParams::default()).unwrap();
-    let blob = write_triangle_tree(&built, tris);
+    let blob = write_triangle_tree(&built, tris).unwrap();
     let tree = blob.tree().unwrap();
     let params = RenderParams::new(camera, w, h, &bounds(tris));
     let brute = render(&BruteTracer(tris), &params, &|| ());
@@ -101,7 +101,7 @@ fn heatmap_has_a_legend_and_costs_that_vary() {
         &BuildParams::default(),
     )
     .unwrap();
-    let blob = write_triangle_tree(&built, &scene.triangles);
+    let blob = write_triangle_tree(&built, &scene.triangles).unwrap();
     let tree = blob.tree().unwrap();
     let params = RenderParams::new(
         Camera::framing(&scene.focus),

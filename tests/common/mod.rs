@@ -4,7 +4,7 @@
 
 use kdray::kernel::{any_hit_brute, closest_hit_brute, Ray, Triangle};
 use kdray::tools::blob::{write_triangle_tree, Blob};
-use kdray::tools::build::{build, BuildParams, BuilderKind};
+use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use std::path::PathBuf;
 
 /// The shared meshes folder, if present (`KDRAY_MESHES` overrides).
@@ -18,7 +18,7 @@ pub(crate) fn shared_meshes() -> Option<PathBuf> {
 /// Builds `tris` with `kind` and returns the blob (validated by the caller via `tree()`).
 pub(crate) fn blob(tris: &[Triangle], kind: BuilderKind) -> Blob {
     let built = build(tris, kind, &BuildParams::default()).expect("build");
-    write_triangle_tree(&built, tris)
+    write_triangle_tree(&built, tris).unwrap()
 }
 
 /// Asserts every builder's tree answers every ray exactly as brute force:

@@ -47,10 +47,9 @@ pub use knn::knn_brute;
 pub use nearest::nearest_brute;
 pub use within::{within_brute, BufferTooSmall};
 
-use crate::error::BlobError;
-use crate::node::{Node, NodeKind};
-use crate::tree::{validate_nodes_with, Bounds};
-use crate::wire::{self, Header, Sections, KIND_POINTS};
+use crate::blob::wire::{self, Header, Sections, KIND_POINTS};
+use crate::blob::{validate_nodes_with, BlobError, Node, NodeKind};
+use crate::geometry::Bounds;
 use bytemuck::{Pod, Zeroable};
 
 /// One neighbour: the point's index and its squared distance to the query.
@@ -383,8 +382,8 @@ fn check_leaf(
 pub(crate) mod tests_support {
     //! A hand-built tree the query tests share.
     use super::PointTree;
-    use crate::node::{Axis, Node};
-    use crate::tree::Bounds;
+    use crate::blob::Node;
+    use crate::geometry::{Axis, Bounds};
 
     /// The points by index; 4 and 5 are a pile of two.
     pub(crate) const HAND_POINTS: [[f32; 3]; 7] = [

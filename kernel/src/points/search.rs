@@ -5,7 +5,7 @@
 //! [`Accumulator`].
 
 use super::{box_distance2, distance2, PointTree};
-use crate::tree::MAX_DEPTH;
+use crate::blob::MAX_DEPTH;
 
 /// What a query keeps while the search runs.
 pub(crate) trait Accumulator {
@@ -99,7 +99,7 @@ impl PointTree<'_> {
     fn scan_leaf<A: Accumulator>(
         &self,
         node_idx: u32,
-        node: crate::node::Node,
+        node: crate::blob::Node,
         q: &[f32; 3],
         acc: &mut A,
     ) {

@@ -12,7 +12,7 @@
 use super::CmdResult;
 use kdray_kernel::{Hit, Ray};
 use kdray_tools::blob::write_triangle_tree;
-use kdray_tools::build::{build_monitored, BuildMonitor, BuildParams, BuilderKind};
+use kdray_tools::builders::{build_monitored, BuildMonitor, BuildParams, BuilderKind};
 use kdray_tools::camera::{random_rays, Camera};
 use kdray_tools::mesh;
 use kdray_tools::scene::{bounds_of, in_stadium, needles, teapot_in_stadium, Scene};
@@ -110,7 +110,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
                 built = Some(b);
             }
             let built = built.ok_or("no build")?;
-            let blob = write_triangle_tree(&built, tris);
+            let blob = write_triangle_tree(&built, tris)?;
             let tree = blob.tree()?;
             let st = tree_stats(&tree, CostModel::from_params(&params));
             let wh = tree_stats(&tree, CostModel::WALD_HAVRAN);

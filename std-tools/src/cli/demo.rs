@@ -7,7 +7,7 @@ use super::{thread_pool, CmdResult};
 use kdray_kernel::{closest_hit_brute, Hit};
 use kdray_kernel::{PacketWidth, TriangleTree};
 use kdray_tools::blob::write_triangle_tree;
-use kdray_tools::build::{build, Aabb, BuildParams, BuilderKind};
+use kdray_tools::builders::{build, BuildParams, BuilderKind};
 use kdray_tools::camera::Camera;
 use kdray_tools::render::{render, render_heatmap, RenderParams, TreeTracer};
 use kdray_tools::scene::teapot_in_stadium;
@@ -50,7 +50,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let t = Instant::now();
     let built = build(&scene.triangles, BuilderKind::default(), &params)?;
     let build_ms = t.elapsed().as_secs_f64() * 1e3;
-    let blob = write_triangle_tree(&built, &scene.triangles);
+    let blob = write_triangle_tree(&built, &scene.triangles)?;
     let tree = blob.tree()?;
     say!("  build              {build_ms:.1} ms");
     print_stats(&tree_stats(&tree, CostModel::from_params(&params)));
@@ -114,7 +114,7 @@ fn draw(
     dir: &std::path::Path,
 ) -> CmdResult {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: cannot create: {e}", dir.display()))?;
-    let all = Aabb::from_bounds(&tree.bounds());
+    let all = tree.bounds();
     let params = RenderParams::new(camera, 640, 480, &all);
     let t = Instant::now();
     let tracer = TreeTracer {

@@ -4,7 +4,7 @@ use super::json::JsonObject;
 use super::report::{print_stats, stats_json};
 use super::CmdResult;
 use kdray_tools::blob::Blob;
-use kdray_tools::build::BuildParams;
+use kdray_tools::builders::BuildParams;
 use kdray_tools::stats::{tree_stats, CostModel};
 use std::path::PathBuf;
 use std::time::Instant;

@@ -10,8 +10,8 @@ macro_rules! say {
 }
 
 mod bench;
-mod build;
 mod build_points;
+mod build_tree;
 mod demo;
 mod info;
 mod json;
@@ -35,7 +35,7 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Build a tree from a mesh and write it as a blob.
-    Build(build::Args),
+    Build(build_tree::Args),
     /// Validate a tree blob and print its statistics.
     Info(info::Args),
     /// Trace a ray file against a tree, writing a hit file.
@@ -59,7 +59,7 @@ type CmdResult = Result<(), Box<dyn std::error::Error>>;
 pub(crate) fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Some(Command::Build(a)) => build::run(&a),
+        Some(Command::Build(a)) => build_tree::run(&a),
         Some(Command::Info(a)) => info::run(&a),
         Some(Command::Trace(a)) => trace::run(&a),
         Some(Command::BuildPoints(a)) => build_points::run(&a),

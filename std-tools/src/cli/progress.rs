@@ -2,7 +2,7 @@
 //! in pipes, logs and tests): one polling a build's monitor, one counting
 //! steps of a render.
 
-use kdray_tools::build::BuildMonitor;
+use kdray_tools::builders::BuildMonitor;
 use std::io::{IsTerminal, Write};
 use std::time::Duration;
 

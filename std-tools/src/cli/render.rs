@@ -7,7 +7,7 @@ use super::{thread_pool, CmdResult};
 use glam::Vec3;
 use kdray_kernel::PacketWidth;
 use kdray_tools::blob::{write_triangle_tree, Blob};
-use kdray_tools::build::{build, Aabb, BuildParams, BuilderKind};
+use kdray_tools::builders::{build, BuildParams, BuilderKind};
 use kdray_tools::camera::Camera;
 use kdray_tools::mesh;
 use kdray_tools::render::{bands, render, render_heatmap, RenderParams, TreeTracer};
@@ -74,7 +74,7 @@ fn tree_blob(path: &Path) -> Result<Blob, Box<dyn std::error::Error>> {
     } else {
         let tris = mesh::load(path)?;
         let built = build(&tris, BuilderKind::default(), &BuildParams::default())?;
-        write_triangle_tree(&built, &tris)
+        write_triangle_tree(&built, &tris)?
     })
 }
 
@@ -87,7 +87,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let tree = blob
         .tree()
         .map_err(|e| format!("{}: invalid tree blob: {e}", a.input.display()))?;
-    let scene = Aabb::from_bounds(&tree.bounds());
+    let scene = tree.bounds();
     let mut camera = Camera::framing(&scene);
     camera.eye = a.eye.unwrap_or(camera.eye);
     camera.target = a.target.unwrap_or(camera.target);

@@ -6,9 +6,9 @@
 //!           -> blob::write_point_tree -> Blob -> Blob::point_tree() -> kernel queries
 //! ```
 
-mod build;
+mod builder;
 
-pub use build::{build_points, BuiltPoints, PointBuildError, PointParams};
+pub use builder::{build_points, BuiltPoints, PointBuildError, PointParams};
 
 use kdray_kernel::{Neighbour, PointTree};
 use rayon::prelude::*;

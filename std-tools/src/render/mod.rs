@@ -12,9 +12,9 @@ pub use heatmap::{render_heatmap, Heatmap, LEGEND_HEIGHT};
 pub use image::Image;
 pub use tracer::{BruteTracer, Tracer, TreeTracer};
 
-use crate::build::Aabb;
 use crate::camera::Camera;
 use glam::Vec3;
+use kdray_kernel::Bounds;
 use kdray_kernel::{Hit, PacketWidth, Ray, Triangle};
 use rayon::prelude::*;
 
@@ -39,7 +39,7 @@ impl RenderParams {
     /// left of the eye and the shadow offset scaled to `scene` (the bounds
     /// of everything that can cast a shadow).
     #[must_use]
-    pub fn new(camera: Camera, width: u32, height: u32, scene: &Aabb) -> RenderParams {
+    pub fn new(camera: Camera, width: u32, height: u32, scene: &Bounds) -> RenderParams {
         let fwd = (camera.target - camera.eye).normalize_or(Vec3::NEG_Z);
         let right = fwd.cross(camera.up).normalize_or(Vec3::X);
         let dist = (camera.target - camera.eye).length();

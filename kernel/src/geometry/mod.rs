@@ -1,0 +1,9 @@
+//! Geometry the rest of the kernel speaks: rays and hits, axes, boxes.
+
+mod axis;
+mod bounds;
+mod ray;
+
+pub use axis::Axis;
+pub use bounds::Bounds;
+pub use ray::{ray_is_valid, Hit, Ray, MISS, OCCLUDED};

@@ -1,0 +1,211 @@
+//! Lanes against single rays, bitwise, on a small hand-built tree whose
+//! splits cut all three axes (every leaf lists every triangle, so the
+//! tree is trivially exact and only the walk is under test).
+
+use super::*;
+use crate::blob::Node;
+use crate::geometry::{Axis, Bounds};
+use crate::triangle::Triangle;
+
+use crate::test_rng::Rng;
+
+const SPLITS: [(Axis, f32); 3] = [(Axis::X, 0.5), (Axis::Z, 0.25), (Axis::Y, 0.5)];
+
+fn scene(rng: &mut Rng) -> ([Node; 7], [u32; 64], [Triangle; 16]) {
+    // Triangles on a coarse grid (shared edges and vertices, hits on
+    // split planes) plus a few random ones.
+    let mut tris = [Triangle { v: [[0.0; 3]; 3] }; 16];
+    for (i, t) in tris.iter_mut().enumerate() {
+        let g = |r: &mut Rng| (r.f() * 4.0).floor() / 4.0;
+        let raw = i % 4 == 3;
+        *t = Triangle {
+            v: core::array::from_fn(|_| {
+                core::array::from_fn(|_| if raw { rng.f() } else { g(rng) })
+            }),
+        };
+    }
+    let mut prims = [0u32; 64];
+    for (i, p) in prims.iter_mut().enumerate() {
+        *p = (i % 16) as u32;
+    }
+    let i = |a, s, c| Node::interior(a, s, c).unwrap();
+    let leaf = |k: u32| Node::leaf(16, 16 * k).unwrap();
+    let nodes = [
+        i(SPLITS[0].0, SPLITS[0].1, 1),
+        i(SPLITS[1].0, SPLITS[1].1, 3),
+        i(SPLITS[2].0, SPLITS[2].1, 5),
+        leaf(0),
+        leaf(1),
+        leaf(2),
+        leaf(3),
+    ];
+    (nodes, prims, tris)
+}
+
+const BOUNDS: Bounds = Bounds {
+    min: [0.0; 3],
+    max: [1.0; 3],
+};
+
+fn component(rng: &mut Rng, special: bool) -> f32 {
+    let specials = [
+        0.0,
+        -0.0,
+        0.5,
+        0.25,
+        f32::NAN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        1e-40,
+        -1e-40,
+        f32::MIN_POSITIVE,
+        1.0,
+        -1.0,
+    ];
+    if special {
+        rng.pick(&specials)
+    } else {
+        rng.f() * 2.0 - 0.5
+    }
+}
+
+fn random_ray(rng: &mut Rng, adversarial: bool) -> Ray {
+    let s = |r: &mut Rng| adversarial && r.f() < 0.3;
+    let mut ray = Ray {
+        origin: core::array::from_fn(|_| {
+            let sp = s(rng);
+            component(rng, sp)
+        }),
+        tmin: 0.0,
+        dir: core::array::from_fn(|_| {
+            let sp = s(rng);
+            component(rng, sp) - 0.25
+        }),
+        tmax: f32::INFINITY,
+    };
+    if adversarial {
+        ray.tmin = rng.pick(&[0.0, -0.0, -1.0, 0.5, f32::NAN, f32::NEG_INFINITY]);
+        ray.tmax = rng.pick(&[f32::INFINITY, 1.0, 0.0, 2.5, f32::NAN]);
+        // Origins on split planes and rays along them.
+        if rng.f() < 0.3 {
+            let (a, sp) = rng.pick(&SPLITS);
+            ray.origin[a.index()] = sp;
+            if rng.f() < 0.5 {
+                ray.dir[a.index()] = rng.pick(&[0.0, -0.0]);
+            }
+        }
+    }
+    ray
+}
+
+fn check_packet<const N: usize>(
+    tree: &TriangleTree,
+    packet: &Packet<N>,
+    closest: [Hit; N],
+    any: [bool; N],
+) {
+    for l in 0..N {
+        let ray = packet.ray(l);
+        let (want, want_any) = if packet.valid[l] {
+            (tree.closest_hit(&ray), tree.any_hit(&ray))
+        } else {
+            (Hit::MISS, false)
+        };
+        assert_eq!(closest[l].bits(), want.bits(), "lane {l} of {packet:?}");
+        assert_eq!(any[l], want_any, "any-hit lane {l} of {packet:?}");
+    }
+}
+
+#[test]
+fn lanes_equal_single_rays_bitwise() {
+    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    let mut hits = 0;
+    for _ in 0..40 {
+        let (nodes, prims, tris) = scene(&mut rng);
+        let tree = TriangleTree::from_parts(&nodes, &prims, &tris, BOUNDS).unwrap();
+        for i in 0..400 {
+            let adversarial = i % 2 == 1;
+            let mut p16 = Packet16::EMPTY;
+            let mut p8 = Packet8::EMPTY;
+            let mut p4 = Packet4::EMPTY;
+            for l in 0..16 {
+                let ray = random_ray(&mut rng, adversarial);
+                // Some lanes stay inactive (with a ray that would hit).
+                if !adversarial || rng.f() < 0.8 {
+                    p16.set_ray(l, &ray);
+                    p8.set_ray(l, &ray);
+                    p4.set_ray(l % 4, &ray);
+                } else {
+                    p16.origin[0][l] = 0.25;
+                    p16.dir[2][l] = -1.0;
+                    if l < 8 {
+                        p8.origin[0][l] = 0.25;
+                        p8.dir[2][l] = -1.0;
+                    }
+                }
+            }
+            check_packet(&tree, &p16, tree.closest_hit16(&p16), tree.any_hit16(&p16));
+            let h8 = tree.closest_hit8(&p8);
+            hits += h8.iter().filter(|h| h.is_hit()).count();
+            check_packet(&tree, &p8, h8, tree.any_hit8(&p8));
+            check_packet(&tree, &p4, tree.closest_hit4(&p4), tree.any_hit4(&p4));
+        }
+    }
+    // The test must exercise hits, not only misses.
+    assert!(hits > 5_000, "only {hits} hits");
+}
+
+#[test]
+fn coherent_packets_with_shared_signs() {
+    let mut rng = Rng(7);
+    let (nodes, prims, tris) = scene(&mut rng);
+    let tree = TriangleTree::from_parts(&nodes, &prims, &tris, BOUNDS).unwrap();
+    let eye = Vec3::new(0.5, 0.4, 2.0);
+    for ty in 0..32 {
+        for tx in 0..16 {
+            let dirs = core::array::from_fn(|l| {
+                let (x, y) = (tx * 4 + l % 4, ty * 2 + l / 4);
+                Vec3::new(x as f32 / 64.0 - 0.5, y as f32 / 64.0 - 0.5, -1.0)
+            });
+            let p = Packet8::from_vec3([eye; 8], dirs, 0.0, f32::INFINITY);
+            check_packet(&tree, &p, tree.closest_hit8(&p), tree.any_hit8(&p));
+            // Two such tiles side by side in 16 lanes.
+            let dirs16 = core::array::from_fn(|l| {
+                let (x, y) = (tx * 4 + l % 4 + 64 * (l / 8), ty * 2 + l / 4 % 2);
+                Vec3::new(x as f32 / 128.0 - 0.5, y as f32 / 64.0 - 0.5, -1.0)
+            });
+            let p = Packet16::from_vec3([eye; 16], dirs16, 0.0, f32::INFINITY);
+            check_packet(&tree, &p, tree.closest_hit16(&p), tree.any_hit16(&p));
+        }
+    }
+}
+
+#[test]
+fn slices_trace_every_ray_and_stop_at_the_shorter() {
+    let mut rng = Rng(99);
+    let (nodes, prims, tris) = scene(&mut rng);
+    let tree = TriangleTree::from_parts(&nodes, &prims, &tris, BOUNDS).unwrap();
+    let rays: [Ray; 21] = core::array::from_fn(|_| random_ray(&mut rng, false));
+    for width in [
+        PacketWidth::One,
+        PacketWidth::Four,
+        PacketWidth::Eight,
+        PacketWidth::Sixteen,
+    ] {
+        let mut hits = [Hit::OCCLUDED; 22];
+        tree.closest_hits_with(width, &rays, &mut hits);
+        let mut occ = [true; 20];
+        tree.any_hits_with(width, &rays, &mut occ);
+        for (i, r) in rays.iter().enumerate() {
+            assert_eq!(hits[i].bits(), tree.closest_hit(r).bits());
+            if let Some(&o) = occ.get(i) {
+                assert_eq!(o, tree.any_hit(r));
+            }
+        }
+        assert_eq!(
+            hits[21].bits(),
+            Hit::OCCLUDED.bits(),
+            "written past the rays"
+        );
+    }
+}

@@ -1,0 +1,372 @@
+//! The packet traversal: the lecture's loop once for all lanes.
+//!
+//! ```text
+//! while not a leaf:
+//!     t_split = (split - origin[axis]) * inv_dir[axis]      for every lane
+//!     near lanes = lanes with t_split >= lo, far lanes = the others and
+//!         near lanes with t_split <= hi (the single ray's tests)
+//!     continue with the near child and its lanes, push the far child
+//!         with its lanes and their per-lane [lo, hi]
+//! ```
+//!
+//! The packet walks together only when its active lanes share direction
+//! signs (`LaneRays::coherent`): then "near" is one child for every lane
+//! and each lane meets its cells in its own t order, with exactly the
+//! single ray's slack rule ([`Span`](crate::lanes::Span), shared code)
+//! on the same pre-widened intervals. A lane still tests a few cells its
+//! single ray skips (cells other lanes open, out to the packet's cutoff per
+//! lane), which cannot change its answer: triangles are tested over the
+//! lane's own `[tmin, best t]` and [`Closest`] does not depend on the order
+//! in which hits arrive. Packets whose lanes disagree on a sign are traced
+//! lane by lane as single rays (`LaneRays::alone`); a coherent packet walks
+//! in lanes to the end, even with one lane left.
+//!
+//! Where the time goes (8-wide bunny camera tiles): ~28 interior steps per
+//! packet (~40% of the time; 71% of them send every lane to the same
+//! child), ~10 triangle tests (~35%), set-up and output (~15-20%). The step
+//! is bound by its node-to-node chain, as the single ray's is.
+
+// Tried and dropped (8-wide bunny camera tiles unless said, interleaved,
+// hits identical every time):
+// - per-lane near/far for mixed-sign packets (each lane's near child by
+//   masks and blends): random rays ~0.6-0.8x single rays, camera no gain;
+// - selects instead of the near-or-far branch: 15-40% slower, as
+//   conditional moves were for single rays;
+// - a branch-free step (both children's `t_split` one step ahead, the next
+//   node picked by selects): 14% slower, the selects' chain costs more
+//   than the mispredictions it saves;
+// - a leaner one-sided step (push only when both children are visited):
+//   3.5% slower; the unconditional push stays;
+// - a frustum walk (one scalar interval for the packet, bounds of every
+//   lane's `t_split`, every lane tested in leaves): exact, but 20% slower:
+//   its scalar step took as long as the lane step, and the per-packet
+//   reductions came on top;
+// - two packets walked in lockstep (two chains overlapped): 5% slower, two
+//   walks' state does not fit the registers;
+// - entry points for groups of packets (one lane's path replayed by the
+//   next seven packets): 2% slower, plus 5% for the walk's start-anywhere
+//   form; the shared descent is ~7 of ~30 steps;
+// - the descent as an inner loop ending at a leaf, or out of line: no
+//   gain (4-wide 3% slower);
+// - the child pair read once and indexed by the near bit: 11% slower;
+//   loading the far child's children ahead as a prefetch: 3% slower;
+// - unchecked node and stack reads: slower; the stack index taken modulo
+//   `MAX_DEPTH`: ~1%, not worth wrapped entries;
+// - going straight through nodes with an empty child (no `t_split`, all
+//   lanes kept): 4.8x slower, the lanes lose their culling; the empty-child
+//   drop as a mask, or children by index arithmetic: no gain;
+// - leaves without the early exit when no lane passes: 6% slower;
+// - finishing a lone lane as a single ray: 3-11% slower once empty cells
+//   were skipped at the parent (up to two lanes: 13% slower still).
+// Not built: a mailbox (0.8 of ~10 triangle tests per packet repeat one,
+// about what the check would cost).
+
+use super::super::walk::LeafIter;
+use super::super::TriangleTree;
+use super::lane_rays::LaneRays;
+use crate::blob::MAX_DEPTH;
+use crate::geometry::{Hit, MISS};
+use crate::lanes::Lanes;
+use crate::triangle::Closest;
+
+/// A far child waiting on the stack with its lanes and their intervals
+/// (widened by the slack, as the single ray keeps them).
+#[derive(Clone, Copy)]
+struct Pending<V> {
+    node: u32,
+    lanes: u32,
+    lo: V,
+    hi: V,
+}
+
+/// The packet walk's stack, [`MAX_DEPTH`] entries. The slice entry points
+/// make one for all their packets: filling its 6 KiB (8 lanes) anew for
+/// every packet was ~7% of an 8-wide camera trace. Entries above the
+/// stack pointer are never read, so a stack needs no clearing between
+/// walks.
+pub(crate) struct LaneStack<V>([Pending<V>; MAX_DEPTH as usize]);
+
+impl<V: Copy> LaneStack<V> {
+    /// A stack of entries filled with `fill`.
+    #[inline(always)]
+    pub(crate) fn new(fill: V) -> Self {
+        let empty = Pending {
+            node: 0,
+            lanes: 0,
+            lo: fill,
+            hi: fill,
+        };
+        LaneStack([empty; MAX_DEPTH as usize])
+    }
+}
+
+/// What the packet loop does at a leaf. Both methods return each lane's
+/// best `t` (cells starting more than the slack beyond it are skipped)
+/// and the lanes still searching, or `None` when all are done.
+trait Visit<'a, V> {
+    /// Tests a leaf's primitives against `lanes`.
+    fn leaf(&mut self, prims: LeafIter<'a>, lanes: u32) -> Option<(V, u32)>;
+    /// The state `leaf` returns, with no new leaf tested.
+    fn state(&self) -> Option<(V, u32)>;
+}
+
+/// The closest-hit search: each lane's [`Closest`] kept in lanes (the
+/// best `t` and the winning hit's edge functions), so a leaf's hits update
+/// all lanes with a few selects.
+struct ClosestLanes<'t, 'a, V, const N: usize> {
+    tree: &'t TriangleTree<'a>,
+    lr: &'t LaneRays<V, N>,
+    /// Each lane's best `t` (its `tmax` before any hit).
+    t: V,
+    /// The best hit's `v`, `w` and `det` ([`TriangleHit`](crate::triangle::TriangleHit)).
+    vwd: [V; 3],
+    /// The best triangle of each lane ([`MISS`] before any hit), its bits
+    /// in an `f32` lane: a win updates it with one select, as `t` (a loop
+    /// over the winning lanes mispredicted its exit).
+    prim: V,
+    /// Lanes with a hit.
+    found: u32,
+}
+
+impl<V: Lanes<N>, const N: usize> ClosestLanes<'_, '_, V, N> {
+    /// Each lane's answer: [`TriangleHit::to_hit`](crate::triangle::TriangleHit::to_hit)
+    /// in lanes (its two divisions for all lanes at once), [`Hit::MISS`]
+    /// by selects, then transposed into records (a branch per lane on hit
+    /// or miss was mispredicted on the silhouette's tiles).
+    #[inline(always)]
+    fn hits(&self) -> [Hit; N] {
+        let [v, w, det] = self.vwd;
+        // A lane that never won keeps `prim == MISS`.
+        let found = V::mask(self.found);
+        let pick = |x: V, miss: f32| V::select(found, x, V::splat(miss));
+        let cols = [
+            pick(self.t, Hit::MISS.t),
+            self.prim,
+            pick(v / det, Hit::MISS.u),
+            pick(w / det, Hit::MISS.v),
+        ];
+        V::records(cols).map(bytemuck::cast)
+    }
+}
+
+impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for ClosestLanes<'_, 'a, V, N> {
+    #[inline(always)]
+    fn leaf(&mut self, prims: LeafIter<'a>, lanes: u32) -> Option<(V, u32)> {
+        let (triangles, lr) = (self.tree.triangles, self.lr);
+        let k = lr.k_uniform;
+        for p in prims {
+            let Some(tri) = triangles.get(p as usize) else {
+                continue;
+            };
+            let Some(h) = lr.intersect(k, tri, lanes, self.t) else {
+                continue;
+            };
+            // `Closest::keep` in lanes: the hit lies in [tmin, best t], so
+            // it wins when nearer, or at equal t with a lower index.
+            let mut wins = h.hit & h.t.lt(self.t);
+            let mut ties = h.hit & !wins;
+            while ties != 0 {
+                let l = ties.trailing_zeros() as usize;
+                ties &= ties - 1;
+                if p < self.prim.lane(l).to_bits() {
+                    wins |= 1 << l;
+                }
+            }
+            if wins == 0 {
+                continue;
+            }
+            let m = V::mask(wins);
+            self.t = V::select(m, h.t, self.t);
+            self.vwd = [(h.v, self.vwd[0]), (h.w, self.vwd[1]), (h.det, self.vwd[2])]
+                .map(|(new, old)| V::select(m, new, old));
+            self.prim = V::select(m, V::splat(f32::from_bits(p)), self.prim);
+            self.found |= wins;
+        }
+        self.state()
+    }
+
+    #[inline(always)]
+    fn state(&self) -> Option<(V, u32)> {
+        Some((self.t, self.lr.active))
+    }
+}
+
+/// The any-hit search: a bitmask of the lanes found occluded.
+struct AnyLanes<'t, 'a, V, const N: usize> {
+    tree: &'t TriangleTree<'a>,
+    lr: &'t LaneRays<V, N>,
+    occluded: u32,
+}
+
+impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for AnyLanes<'_, 'a, V, N> {
+    #[inline(always)]
+    fn state(&self) -> Option<(V, u32)> {
+        let alive = self.lr.active & !self.occluded;
+        (alive != 0).then_some((self.lr.tmax, alive))
+    }
+
+    #[inline(always)]
+    fn leaf(&mut self, prims: LeafIter<'a>, lanes: u32) -> Option<(V, u32)> {
+        let mut open = lanes & !self.occluded;
+        let k = self.lr.k_uniform;
+        for p in prims {
+            if open == 0 {
+                break;
+            }
+            let tri = self.tree.triangles.get(p as usize);
+            if let Some(h) = tri.and_then(|t| self.lr.intersect(k, t, open, self.lr.tmax)) {
+                self.occluded |= h.hit;
+                open &= !h.hit;
+            }
+        }
+        self.state()
+    }
+}
+
+impl<'a> TriangleTree<'a> {
+    /// The closest hit of every lane of `lr` (`Hit::MISS` for lanes that
+    /// do not take part).
+    #[inline(always)]
+    pub(crate) fn closest_lanes<V: Lanes<N>, const N: usize>(
+        &self,
+        lr: &LaneRays<V, N>,
+        stack: &mut LaneStack<V>,
+    ) -> [Hit; N] {
+        if !lr.coherent {
+            return lr.alone(Hit::MISS, |one, start| {
+                let mut best = Closest::new(one.tmax);
+                self.closest_from(&one.sr, &one.cr, one.tmin, &mut best, start, &mut ());
+                best.hit()
+            });
+        }
+        let mut visit = ClosestLanes {
+            tree: self,
+            lr,
+            t: lr.tmax,
+            vwd: [lr.tmax; 3],
+            prim: V::splat(f32::from_bits(MISS)),
+            found: 0,
+        };
+        self.walk_lanes(lr, stack, &mut visit);
+        visit.hits()
+    }
+
+    /// Bit `l` set when lane `l` of `lr` hits any triangle.
+    #[inline(always)]
+    pub(crate) fn any_lanes<V: Lanes<N>, const N: usize>(
+        &self,
+        lr: &LaneRays<V, N>,
+        stack: &mut LaneStack<V>,
+    ) -> u32 {
+        if !lr.coherent {
+            let hit = lr.alone(false, |one, start| {
+                self.any_from(&one.sr, &one.cr, (one.tmin, one.tmax), start, &mut ())
+            });
+            return hit
+                .iter()
+                .enumerate()
+                .fold(0, |m, (l, &h)| m | u32::from(h) << l);
+        }
+        let mut visit = AnyLanes {
+            tree: self,
+            lr,
+            occluded: 0,
+        };
+        self.walk_lanes(lr, stack, &mut visit);
+        visit.occluded
+    }
+
+    /// The packet loop of a coherent packet: `visit` tests leaves.
+    #[inline(always)]
+    fn walk_lanes<V: Lanes<N>, const N: usize>(
+        &self,
+        lr: &LaneRays<V, N>,
+        LaneStack(stack): &mut LaneStack<V>,
+        visit: &mut impl Visit<'a, V>,
+    ) {
+        let s2 = lr.s2;
+        let mut sp = 0usize;
+        let (mut lanes, mut lo, mut hi) = (lr.active, lr.lo, lr.hi);
+        if lanes == 0 {
+            return;
+        }
+        let Some(mut node) = self.nodes.first().copied() else {
+            return;
+        };
+        loop {
+            let axis = node.axis_bits();
+            // Even one lane left in a subtree walks on in lanes: finishing
+            // it as a single ray (its own set-up and stack) cost more than
+            // the packet steps it saved, once empty cells were skipped at
+            // their parent (3-11% slower).
+            let step = if let (Some(&org), Some(&inv)) = (lr.org.get(axis), lr.inv.get(axis)) {
+                // Compute parametric distance along each lane to the split plane.
+                let t_split = (V::splat(node.split()) - org) * inv;
+                // The single ray's rule lane by lane (`../walk.rs`): a
+                // lane visits its near child unless t_split < lo, its far
+                // child unless it visits the near one and t_split > hi. A
+                // NaN t_split visits both.
+                let near = lanes & !t_split.lt(lo);
+                let far = lanes & !(near & t_split.gt(hi));
+                // The near child by the single ray's one-shift rule; an
+                // empty child drops its lanes here (`TriangleTree::children`).
+                let Some((near_node, far_node, second)) =
+                    self.children(node, lr.above_first_nibbles)
+                else {
+                    return;
+                };
+                let near = if near_node.is_empty_leaf() { 0 } else { near };
+                let far = if far_node.is_empty_leaf() { 0 } else { far };
+                let far_lo = lo.far_lo(t_split, s2);
+                // Push the far child unconditionally and keep it only when
+                // the packet visits both children (the single ray's way:
+                // one branch less per node).
+                let Some(slot) = stack.get_mut(sp) else {
+                    return; // deeper than MAX_DEPTH: only an unchecked, invalid blob
+                };
+                *slot = Pending {
+                    node: second as u32,
+                    lanes: far,
+                    lo: far_lo,
+                    hi,
+                };
+                if near == 0 {
+                    if far != 0 {
+                        (node, lanes, lo) = (far_node, far, far_lo);
+                        continue;
+                    }
+                    visit.state()
+                } else {
+                    sp += usize::from(far != 0);
+                    (node, lanes, hi) = (near_node, near, hi.near_hi(t_split, s2));
+                    continue;
+                }
+            } else {
+                // A leaf: test its triangles against the lanes' own intervals.
+                visit.leaf(LeafIter::new(self.leaf_prims(node)), lanes)
+            };
+            let Some((best_t, alive)) = step else {
+                return;
+            };
+            // Advance to the next far cell that can still hold a better hit
+            // for some lane.
+            let cutoff = best_t.cutoff(s2);
+            loop {
+                if sp == 0 {
+                    return;
+                }
+                sp -= 1;
+                let p = stack[sp];
+                let open = p.lanes & alive & p.lo.le(cutoff);
+                if open != 0 {
+                    (lanes, lo, hi) = (open, p.lo, p.hi.min(cutoff));
+                    let Some(&n) = self.nodes.get(p.node as usize) else {
+                        return;
+                    };
+                    node = n;
+                    break;
+                }
+            }
+        }
+    }
+}

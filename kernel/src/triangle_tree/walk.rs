@@ -1,0 +1,512 @@
+//! Single-ray traversal: the lecture's non-recursive loop on a fixed stack.
+//!
+//! ```text
+//! while not a leaf:
+//!     t_split = (split - origin[axis]) * inv_dir[axis]
+//!     if t_split is beyond t_max: continue with the near child only
+//!     if t_split is before t_min: continue with the far child only
+//!     push (far child, t_split, t_max); continue with (near child, t_min, t_split)
+//! ```
+//!
+//! with one refinement: a child that is an empty cell is never entered nor
+//! pushed (the parent reads both children, `TriangleTree::children`, and
+//! skips an empty one there), and the loop moves on to the next far cell
+//! when neither child holds anything for the ray.
+//!
+//! "Near" is the child the ray enters first *in t order*: the below child
+//! when the direction component is positive or `+0`, the above child when
+//! it is negative or `-0`. Taking the sign of `1/d` (an infinity of the
+//! right sign for `d = ±0`) makes the rule hold for negative `t` ranges and
+//! for rays parallel to the split plane, where `t_split` is `±inf` (the ray
+//! stays on one side) or NaN (origin exactly on the plane: NaN fails both
+//! tests, so both children are visited over the whole interval).
+
+// The loop is bound by its node-to-node chain (node load, child index,
+// next node load), not by mispredictions or cache misses: what paid
+// shortened that chain or took work off it. Tried and dropped (bunny
+// camera rays, hits identical):
+// - conditional moves for near/far: 25-30% slower, see the branch below;
+// - unchecked node loads (`get_unchecked`): no gain, the bounds check is
+//   one predicted compare off the chain;
+// - the split loaded straight into a float register, the running closest
+//   hit copied to a local, one slice for one- and many-primitive leaves:
+//   no gain;
+// - a mailbox: no gain, only 8% of a camera ray's triangle tests repeat
+//   one of the last eight;
+// - a prefetch of the far child's children when both are visited (shadow
+//   rays): 7-15% slower.
+
+use super::cell_ray::CellRay;
+use super::counts::{Tally, TraversalCounts};
+use super::leaf_lanes::{self, LANE_LEAF_MIN};
+use super::{LeafPrims, TriangleTree};
+use crate::blob::MAX_DEPTH;
+use crate::geometry::{Hit, Ray};
+use crate::lanes::Span;
+use crate::triangle::{Closest, ShearedRay, Triangle};
+use core::mem::MaybeUninit;
+
+/// A far child waiting on the stack with its interval.
+#[derive(Clone, Copy, Debug)]
+struct Pending {
+    node: u32,
+    /// Start of the cell's interval, less the slack.
+    lo: f32,
+    /// End of the cell's interval, plus the slack.
+    hi: f32,
+}
+
+// The traversal stack the docs promise: MAX_DEPTH entries of 12 bytes.
+const _: () = assert!(core::mem::size_of::<Pending>() * MAX_DEPTH as usize == 768);
+
+/// What the walk does in a non-empty leaf: the closest-hit or the any-hit
+/// search. A trait rather than a closure so that the leaf test is inlined
+/// into the loop (as a closure it was an out-of-line call per leaf).
+trait Visit<'a, T> {
+    /// The end of the ray's current interval: cells starting beyond it
+    /// (plus the slack) cannot hold a better hit.
+    fn bound(&self) -> f32;
+    /// Tests the leaf's triangles; `true` when the answer is known.
+    fn leaf(&mut self, tris: &'a [Triangle], prims: LeafIter<'a>, tally: &mut T) -> bool;
+}
+
+/// Whether leaves are tested in lanes: where `wide` has vector registers
+/// to put them in (x86-64 always has SSE2; there `f32x8` is two `f32x4`
+/// and still measured ~4% faster than the scalar test on camera rays). On
+/// a target without SIMD eight lanes are eight scalar tests without the
+/// early exits, and the scalar test is kept.
+const LEAF_LANES: bool = cfg!(any(
+    target_feature = "sse2",
+    target_feature = "neon",
+    target_feature = "simd128"
+));
+
+/// The closest-hit search: every triangle of a leaf against `[tmin, best.t]`.
+struct ClosestVisit<'r> {
+    sr: &'r ShearedRay,
+    tmin: f32,
+    best: &'r mut Closest,
+}
+
+impl<'a, T: Tally> Visit<'a, T> for ClosestVisit<'_> {
+    #[inline(always)]
+    fn bound(&self) -> f32 {
+        self.best.t
+    }
+
+    #[inline(always)]
+    fn leaf(&mut self, tris: &'a [Triangle], prims: LeafIter<'a>, tally: &mut T) -> bool {
+        if let Some(run) = prims.lane_run() {
+            tally.triangles(run.len());
+            leaf_lanes::closest_x8(self.sr, tris, run, self.tmin, self.best);
+            return false;
+        }
+        for p in prims {
+            if let Some(tri) = tris.get(p as usize) {
+                tally.triangles(1);
+                self.best.offer(self.sr, tri, p, self.tmin);
+            }
+        }
+        false
+    }
+}
+
+/// The any-hit search: stops at the first triangle hit in `[tmin, tmax]`.
+struct AnyVisit<'r> {
+    sr: &'r ShearedRay,
+    tmin: f32,
+    tmax: f32,
+}
+
+impl<'a, T: Tally> Visit<'a, T> for AnyVisit<'_> {
+    #[inline(always)]
+    fn bound(&self) -> f32 {
+        self.tmax
+    }
+
+    #[inline(always)]
+    fn leaf(&mut self, tris: &'a [Triangle], prims: LeafIter<'a>, tally: &mut T) -> bool {
+        if let Some(run) = prims.lane_run() {
+            tally.triangles(run.len());
+            return leaf_lanes::any_x8(self.sr, tris, run, self.tmin, self.tmax);
+        }
+        for p in prims {
+            if let Some(tri) = tris.get(p as usize) {
+                tally.triangles(1);
+                if self.sr.intersect(tri, self.tmin, self.tmax).is_some() {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+}
+
+impl<'a> TriangleTree<'a> {
+    /// The closest hit of `ray` in `[tmin, tmax]`: the smallest `t`, and at
+    /// equal `t` the lowest triangle index, exactly as
+    /// [`closest_hit_brute`](crate::closest_hit_brute) over all triangles.
+    /// [`Hit::MISS`] for a miss or an invalid ray.
+    ///
+    /// # Panics
+    /// Never. No allocation; the stack is [`MAX_DEPTH`] entries.
+    ///
+    /// # Example
+    /// ```
+    /// use glam::Vec3;
+    /// use kdray_kernel::{closest_hit_brute, Hit, Ray, TriangleTree};
+    /// static CUBE: &kdray_kernel::Aligned<[u8]> =
+    ///     kdray_kernel::include_aligned!("../../golden/cube-v1.kdt");
+    /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
+    ///
+    /// // From below the cube, straight up: the floor at t = 1.
+    /// let ray = Ray::new(Vec3::new(0.3, 0.6, -1.0), Vec3::Z);
+    /// let hit = tree.closest_hit(&ray);
+    /// assert_eq!((hit.t, hit.prim), (1.0, 1));
+    /// // Exactly what testing every triangle finds.
+    /// assert_eq!(hit.bits(), closest_hit_brute(tree.triangles(), &ray).bits());
+    /// // Pointing away, or invalid: a miss.
+    /// assert_eq!(tree.closest_hit(&Ray::new(Vec3::new(0.3, 0.6, -1.0), -Vec3::Z)), Hit::MISS);
+    /// assert!(!tree.closest_hit(&Ray::new(Vec3::ZERO, Vec3::ZERO)).is_hit());
+    /// # Ok::<(), kdray_kernel::BlobError>(())
+    /// ```
+    #[inline]
+    #[must_use]
+    pub fn closest_hit(&self, ray: &Ray) -> Hit {
+        self.closest_hit_tallied(ray, &mut ())
+    }
+
+    /// [`TriangleTree::closest_hit`], also counting the nodes visited and
+    /// triangles tested (for heatmaps and tuning; a little slower).
+    #[must_use]
+    pub fn closest_hit_counted(&self, ray: &Ray) -> (Hit, TraversalCounts) {
+        let mut counts = TraversalCounts::default();
+        let hit = self.closest_hit_tallied(ray, &mut counts);
+        (hit, counts)
+    }
+
+    // Not inlined: the setup and the walk share one frame and one register
+    // allocation, whatever loop the caller has (measured faster than
+    // inlining into `closest_hits`, and no wide copies of ray structs).
+    #[inline(never)]
+    fn closest_hit_tallied<T: Tally>(&self, ray: &Ray, tally: &mut T) -> Hit {
+        let Some(sr) = ShearedRay::new(ray) else {
+            return Hit::MISS;
+        };
+        let Some(cr) = CellRay::new(ray, &sr, &self.bounds) else {
+            return Hit::MISS;
+        };
+        let mut best = Closest::new(ray.tmax);
+        let (lo, hi) = cr.start();
+        let start = (0, lo, hi);
+        self.closest_from(&sr, &cr, ray.tmin, &mut best, start, tally);
+        best.hit()
+    }
+
+    /// The closest-hit search of one ray through the subtree at `start` =
+    /// `(node, lo, hi)` (interval widened by the slack), into `best`;
+    /// triangles are tested over `[tmin, best.t]`. (Packets whose lanes do
+    /// not walk together trace each lane with it, from the root.)
+    #[inline(always)]
+    pub(crate) fn closest_from<T: Tally>(
+        &self,
+        sr: &ShearedRay,
+        cr: &CellRay,
+        tmin: f32,
+        best: &mut Closest,
+        start: (u32, f32, f32),
+        tally: &mut T,
+    ) {
+        let mut visit = ClosestVisit { sr, tmin, best };
+        // The closest-hit visitor never stops the walk early.
+        self.walk(cr, start, tally, &mut visit);
+    }
+
+    /// Does any triangle hit `ray` in `[tmin, tmax]`? Exactly when
+    /// [`any_hit_brute`](crate::any_hit_brute) says so.
+    ///
+    /// # Panics
+    /// Never. No allocation; the stack is [`MAX_DEPTH`] entries.
+    ///
+    /// # Example
+    /// ```
+    /// use glam::Vec3;
+    /// use kdray_kernel::{Ray, TriangleTree};
+    /// static CUBE: &kdray_kernel::Aligned<[u8]> =
+    ///     kdray_kernel::include_aligned!("../../golden/cube-v1.kdt");
+    /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
+    ///
+    /// // A shadow ray from a point inside the cube to a light outside it:
+    /// // the walls are in the way. Stopped short of the wall, it is clear.
+    /// let p = Vec3::new(0.9, 0.1, 0.1);
+    /// let to_light = Vec3::new(2.0, 0.1, 0.1) - p;
+    /// assert!(tree.any_hit(&Ray::with_range(p, to_light, 0.0, 1.0)));
+    /// assert!(!tree.any_hit(&Ray::with_range(p, to_light, 0.0, 0.05)));
+    /// # Ok::<(), kdray_kernel::BlobError>(())
+    /// ```
+    #[inline]
+    #[must_use]
+    pub fn any_hit(&self, ray: &Ray) -> bool {
+        self.any_hit_tallied(ray, &mut ())
+    }
+
+    /// [`TriangleTree::any_hit`], also counting the work done.
+    #[must_use]
+    pub fn any_hit_counted(&self, ray: &Ray) -> (bool, TraversalCounts) {
+        let mut counts = TraversalCounts::default();
+        let hit = self.any_hit_tallied(ray, &mut counts);
+        (hit, counts)
+    }
+
+    // Not inlined: see `closest_hit_tallied`.
+    #[inline(never)]
+    fn any_hit_tallied<T: Tally>(&self, ray: &Ray, tally: &mut T) -> bool {
+        let Some(sr) = ShearedRay::new(ray) else {
+            return false;
+        };
+        let Some(cr) = CellRay::new(ray, &sr, &self.bounds) else {
+            return false;
+        };
+        let (lo, hi) = cr.start();
+        let start = (0, lo, hi);
+        self.any_from(&sr, &cr, (ray.tmin, ray.tmax), start, tally)
+    }
+
+    /// The any-hit search of one ray over `[tmin, tmax]` through the
+    /// subtree at `start` = `(node, lo, hi)`.
+    #[inline(always)]
+    pub(crate) fn any_from<T: Tally>(
+        &self,
+        sr: &ShearedRay,
+        cr: &CellRay,
+        (tmin, tmax): (f32, f32),
+        start: (u32, f32, f32),
+        tally: &mut T,
+    ) -> bool {
+        let mut visit = AnyVisit { sr, tmin, tmax };
+        self.walk(cr, start, tally, &mut visit)
+    }
+
+    /// The traversal loop: `visit` sees each non-empty leaf's primitives,
+    /// in front-to-back order of cells. `true` when `visit` stopped it.
+    #[inline(always)]
+    fn walk<T, V>(&self, cr: &CellRay, start: (u32, f32, f32), tally: &mut T, visit: &mut V) -> bool
+    where
+        T: Tally,
+        V: Visit<'a, T>,
+    {
+        let s = cr.slack;
+        let s2 = s + s;
+        // Cells starting after `cutoff` (the best hit plus the slack,
+        // widened by the slack) are behind the best hit.
+        let mut cutoff = visit.bound().cutoff(s2);
+        // Left uninitialised: zeroing 768 bytes per ray was a `memset` call
+        // costing ~5% of a camera-ray trace. Invariant: entries below `sp`
+        // are written (a push writes `stack[sp]` before `sp` grows past it).
+        let mut stack = [MaybeUninit::<Pending>::uninit(); MAX_DEPTH as usize];
+        let mut sp = 0usize;
+        let (node0, mut lo, mut hi) = start;
+        // Origin and reciprocal direction side by side, filled element by
+        // element: copying `cr`'s arrays whole loaded 8 bytes across two
+        // smaller stores, a store-forwarding stall per ray.
+        let (o, i) = (cr.org, cr.inv);
+        let slab = [o[0], o[1], o[2], 0.0, i[0], i[1], i[2], 0.0];
+        let Some(&(mut node)) = self.nodes.get(node0 as usize) else {
+            return false;
+        };
+        loop {
+            tally.node();
+            let axis = node.axis_bits();
+            if axis < 3 {
+                // Compute parametric distance along ray to split plane.
+                let t_split = (node.split() - slab[axis]) * slab[axis + 4];
+                // Empty children are skipped here, at their parent (~4.6 of
+                // the ~28 steps of a camera ray through the bunny were such
+                // cells).
+                let Some((near, far, second)) = self.children(node, cr.above_first_nibbles) else {
+                    return false;
+                };
+                // The near child's cell ends at t_split, the far child's
+                // starts there. Intervals are kept widened by the slack on
+                // both ends ([lo, hi] = [t0 - s, t1 + s]), so the tests take
+                // t_split as computed, off the critical path of the slack add;
+                // a child's new end is t_split + s, widened once more: + 2s.
+                // Written as "not outside" so a NaN t_split (origin on the
+                // plane, direction parallel to it) visits both over the whole
+                // interval. (`lo <= hi` always, so a ray that skips the near
+                // cell by t_split < lo is inside the far one.)
+                #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must visit: see above
+                let (visit_near, visit_far) = (!(t_split < lo), !(t_split > hi));
+                let visit_far = visit_far & !far.is_empty_leaf();
+                // Push the far child unconditionally; keep it only when both
+                // children are visited.
+                let Some(slot) = stack.get_mut(sp) else {
+                    return false; // deeper than MAX_DEPTH: only an unchecked, invalid blob
+                };
+                let far_lo = lo.far_lo(t_split, s2);
+                slot.write(Pending {
+                    node: second as u32,
+                    lo: far_lo,
+                    hi,
+                });
+                // Branches, not selects: coherent rays take the same side at
+                // the same node, so they predict well. Tried conditional moves
+                // (mask selects of node, lo, hi): 25-30% slower on bunny
+                // camera rays, the same on random rays.
+                if visit_near & !near.is_empty_leaf() {
+                    sp += usize::from(visit_far);
+                    node = near;
+                    hi = hi.near_hi(t_split, s2);
+                    continue;
+                }
+                if visit_far {
+                    node = far;
+                    lo = far_lo;
+                    continue;
+                }
+                // Neither child holds anything for this ray: next far cell.
+            } else if node.upper() != 0 {
+                // A leaf: test its triangles against the ray's own interval.
+                // (Only an empty root is an empty cell here: the walk never
+                // steps into the others, and they leave the cutoff as is.)
+                let prims = LeafIter::new(self.leaf_prims(node));
+                if visit.leaf(self.triangles, prims, tally) {
+                    return true;
+                }
+                cutoff = visit.bound().cutoff(s2);
+            }
+            // Advance to the next far cell that can still hold a better hit.
+            loop {
+                if sp == 0 {
+                    return false;
+                }
+                sp -= 1;
+                // `get`, not an index: the optimiser cannot see `sp` in range,
+                // and an index would leave a panic path (firmware/).
+                let Some(slot) = stack.get(sp) else {
+                    return false;
+                };
+                // SAFETY: `sp` was above this entry, so it was written
+                // (the invariant where `stack` is declared).
+                let p = unsafe { slot.assume_init() };
+                if p.lo <= cutoff {
+                    let Some(&n) = self.nodes.get(p.node as usize) else {
+                        return false;
+                    };
+                    (node, lo, hi) = (n, p.lo, Span::min(p.hi, cutoff));
+                    break;
+                }
+            }
+        }
+    }
+}
+
+/// The primitives of a leaf as an iterator.
+pub(crate) enum LeafIter<'a> {
+    One(Option<u32>),
+    Run(core::slice::Iter<'a, u32>),
+}
+
+impl<'a> LeafIter<'a> {
+    #[inline(always)]
+    pub(crate) fn new(p: LeafPrims<'a>) -> Self {
+        match p {
+            LeafPrims::One(p) => LeafIter::One(Some(p)),
+            LeafPrims::Run(r) => LeafIter::Run(r.iter()),
+        }
+    }
+
+    /// The leaf's primitives as one slice when the leaf is tested in lanes
+    /// (`LEAF_LANES`, and at least `LANE_LEAF_MIN` of them).
+    #[inline(always)]
+    fn lane_run(&self) -> Option<&'a [u32]> {
+        match self {
+            LeafIter::Run(r) if LEAF_LANES && r.len() >= LANE_LEAF_MIN => Some(r.as_slice()),
+            _ => None,
+        }
+    }
+}
+
+impl Iterator for LeafIter<'_> {
+    type Item = u32;
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<u32> {
+        match self {
+            LeafIter::One(p) => p.take(),
+            LeafIter::Run(r) => r.next().copied(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! The walk on a small hand-built tree, small enough for Miri (which
+    //! checks the uninitialised traversal stack): `cargo +nightly miri test
+    //! -p kdray-kernel --lib -- triangle_tree::walk::`.
+    use super::*;
+    use crate::blob::Node;
+    use crate::geometry::{Axis, Bounds};
+    use crate::test_rng::Rng;
+    use crate::triangle::{any_hit_brute, closest_hit_brute};
+
+    #[test]
+    fn walk_equals_brute_force_through_stacked_far_cells() {
+        // Four cells along x, [0, .25] [.25, .5] [.5, .75] [.75, 1]: depth 2,
+        // so far cells wait on the stack. The triangles straddle the split
+        // planes (one lies in x = 0.5) and each leaf lists exactly those
+        // its cell's slab touches, so a far cell the walk dropped or popped
+        // wrongly loses hits.
+        let tri = |x0: f32, x1: f32, y: f32| Triangle {
+            v: [[x0, y, 0.1], [x1, y, 0.9], [x1, 1.0 - y, 0.5]],
+        };
+        let tris = [
+            tri(0.1, 0.6, 0.2),
+            tri(0.3, 0.9, 0.7),
+            tri(0.5, 0.5, 0.1),
+            tri(0.05, 0.95, 0.4),
+        ];
+        let split = |s, c| Node::interior(Axis::X, s, c).unwrap();
+        let leaf = |count, at| Node::leaf(count, at).unwrap();
+        // x ranges: 0 [.1, .6], 1 [.3, .9], 2 [.5, .5], 3 [.05, .95].
+        let prims = [0, 3, 0, 1, 2, 3, 1, 3];
+        let nodes = [
+            split(0.5, 1),
+            split(0.25, 3),
+            split(0.75, 5),
+            leaf(2, 0),
+            leaf(4, 2),
+            leaf(4, 2),
+            leaf(2, 6),
+        ];
+        let bounds = Bounds {
+            min: [0.0; 3],
+            max: [1.0; 3],
+        };
+        let tree = TriangleTree::from_parts(&nodes, &prims, &tris, bounds).unwrap();
+        let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+        let mut f = || rng.f();
+        let mut hits = 0;
+        for k in 0..200 {
+            let origin = [f() * 1.4 - 0.2, f(), f()];
+            let mut dir = [f() - 0.5, f() - 0.5, f() - 0.5];
+            if k % 5 == 0 {
+                dir[0] = 0.0; // parallel to the split planes
+            }
+            let ray = Ray {
+                origin,
+                tmin: 0.0,
+                dir,
+                tmax: f32::INFINITY,
+            };
+            let want = closest_hit_brute(&tris, &ray);
+            hits += usize::from(want.is_hit());
+            assert_eq!(tree.closest_hit(&ray).bits(), want.bits(), "{ray:?}");
+            assert_eq!(tree.any_hit(&ray), any_hit_brute(&tris, &ray), "{ray:?}");
+        }
+        assert!(
+            hits > 20,
+            "only {hits} hits: the test would not see a wrong walk"
+        );
+    }
+}

@@ -1,0 +1,328 @@
+//! Tree builders: triangles in, nodes and primitive runs out, in the
+//! kernel's depth-first layout.
+//!
+//! Every builder produces a [`BuildNode`] tree through the shared
+//! recursion (`subdivide`); [`layout::flatten`] turns it into kernel
+//! [`Node`]s (one definition of the layout). Every point of a triangle lies
+//! in the closed cell of some leaf that references it, so the traversal
+//! finds every hit.
+//!
+//! | builder | split plane | trees | use |
+//! |---|---|---|---|
+//! | [`BuilderKind::Sah`] | SAH with perfect splits: min-max binning (256 bins) down to cells of 16 triangles, every clipped box edge priced exactly below (`sah`, `small`, `clip`) | the best | the default |
+//! | [`BuilderKind::Sweep`] | exact SAH with perfect splits: Wald & Havran's O(N log N) event sweep below 4096 triangles, binning above (`sah`, `events`, `small`, `clip`) | as good, slower to build | the reference |
+//! | [`BuilderKind::Binned`] | SAH at 32 bin boundaries and the boxes' extremes; a split only where it saves a tenth of the leaf's cost; straddlers cut by the plane (`binned`, `boxes`) | a few % dearer, ~3x faster to build | rebuilds |
+//! | [`BuilderKind::Median`] | median of the box centres, widest axis (`median`, `boxes`) | - | baseline |
+//! | [`BuilderKind::Middle`] | middle of the cell, widest axis (`median`, `boxes`) | - | baseline |
+//!
+//! Measured trees and build times: `docs/results.md`; the tuning
+//! thresholds, with what each alternative measured: `thresholds.rs`.
+
+mod binned;
+mod boxes;
+mod clip;
+mod cost;
+mod events;
+mod item;
+pub mod layout;
+mod median;
+mod monitor;
+mod sah;
+mod small;
+mod subdivide;
+mod thresholds;
+
+pub use cost::CostModel;
+pub use layout::{flatten, BuildNode, Split};
+pub use monitor::BuildMonitor;
+
+use kdray_kernel::{Bounds, Node, Triangle, MAX_DEPTH};
+use std::fmt;
+use thresholds::{CUT_MIN, SWEEP_MAX, SWEEP_NONE};
+
+/// The cost model and limits, with the defaults documented per field.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BuildParams {
+    /// Cost of one traversal step (C_trav). Default 1.0.
+    pub traversal_cost: f32,
+    /// Cost of one ray/triangle test (C_isect). Default 0.5: against 1.5,
+    /// a tree of a third of the nodes that traces camera rays as fast and
+    /// random rays faster (the smaller tree misses the cache less); lower
+    /// still (0.25) trades more triangle tests for little gain.
+    pub intersection_cost: f32,
+    /// Fraction of the cost forgiven when one side of a split is empty
+    /// (the lecture's "big empty cells"). Default 0.2.
+    pub empty_bonus: f32,
+    /// Deepest leaf allowed; `None` picks `8 + 1.3 log2(n)` (PBRT's rule),
+    /// at most [`MAX_DEPTH`], which also caps any value given.
+    pub max_depth: Option<u32>,
+    /// How many splits in a row may cost more than a leaf, in the hope that
+    /// the splits below them pay; subtrees that end up costing more than a
+    /// leaf are collapsed. Default 1: each level of look-ahead multiplies the work near the leaves.
+    /// The binned builder, made for fast rebuilds, never looks ahead: it
+    /// splits only where a split saves a tenth of the leaf's cost.
+    pub lookahead: u32,
+    /// How much dearer than a leaf a split may be and still be looked
+    /// ahead of, as a factor of the leaf's cost. Default 1.05: look-ahead
+    /// splits dearer than that paid off less than one time in a hundred
+    /// (bunny, sponza), yet were most of the subtrees built and thrown away.
+    pub lookahead_margin: f32,
+    /// Cells whose largest extent is below this fraction of the scene's are
+    /// leaves. Default 2^-20: far below any useful cell, well above the
+    /// scale where planes run out of distinct `f32` positions.
+    pub min_cell_fraction: f32,
+    /// Bins per axis of the binned builder (at most 256). Default 32.
+    pub bins: usize,
+    /// Leaf size of the median and middle baselines. Default 2.
+    pub baseline_leaf_size: usize,
+    /// Worker threads; `None` builds on the caller's rayon pool (all cores
+    /// by default). The tree is the same for any count.
+    pub threads: Option<usize>,
+}
+
+impl Default for BuildParams {
+    fn default() -> Self {
+        BuildParams {
+            traversal_cost: 1.0,
+            intersection_cost: 0.5,
+            empty_bonus: 0.2,
+            max_depth: None,
+            lookahead: 1,
+            lookahead_margin: 1.05,
+            min_cell_fraction: 1.0 / 1_048_576.0,
+            bins: 32,
+            baseline_leaf_size: 2,
+            threads: None,
+        }
+    }
+}
+
+impl BuildParams {
+    /// The depth limit for `n` triangles.
+    #[must_use]
+    pub fn depth_limit(&self, n: usize) -> u32 {
+        let auto = || (8.0 + 1.3 * (n.max(1) as f64).log2()).round() as u32;
+        self.max_depth.unwrap_or_else(auto).min(MAX_DEPTH)
+    }
+}
+
+/// Which builder.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum BuilderKind {
+    /// SAH with perfect splits (the default): min-max binning with 256
+    /// bins down to cells of 16 triangles, every clipped box edge priced
+    /// below. Trees as good as [`Sweep`](BuilderKind::Sweep)'s, in about
+    /// 60% of its build time.
+    #[default]
+    Sah,
+    /// Exact SAH over every clipped box edge: Wald & Havran's O(N log N)
+    /// event sweep (binned above 4096 triangles), the reference.
+    Sweep,
+    /// SAH over bin boundaries: faster builds, slightly worse trees.
+    Binned,
+    /// Median of the box centres on the widest axis (a baseline).
+    Median,
+    /// Middle of the cell on the widest axis (a baseline).
+    Middle,
+}
+
+impl BuilderKind {
+    /// All builders, for tables and tests.
+    pub const ALL: [BuilderKind; 5] = [
+        BuilderKind::Sah,
+        BuilderKind::Sweep,
+        BuilderKind::Binned,
+        BuilderKind::Median,
+        BuilderKind::Middle,
+    ];
+
+    /// The name used on the command line.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            BuilderKind::Sah => "sah",
+            BuilderKind::Sweep => "sweep",
+            BuilderKind::Binned => "binned",
+            BuilderKind::Median => "median",
+            BuilderKind::Middle => "middle",
+        }
+    }
+
+    /// The builder called `name`.
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<BuilderKind> {
+        Self::ALL.into_iter().find(|b| b.name() == name)
+    }
+
+    /// The builder called `name`, or a message naming the builders.
+    pub fn parse(name: &str) -> Result<BuilderKind, String> {
+        Self::from_name(name).ok_or_else(|| {
+            let names = Self::ALL.map(BuilderKind::name).join(", ");
+            format!("unknown builder '{name}' (expected one of {names})")
+        })
+    }
+}
+
+/// A built tree: the kernel's nodes and primitive indices, the scene
+/// bounds and the depth of the deepest node.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BuiltTree {
+    /// Nodes in the kernel's depth-first layout.
+    pub nodes: Vec<Node>,
+    /// Primitive runs of leaves with several primitives.
+    pub prims: Vec<u32>,
+    /// The root cell.
+    pub bounds: Bounds,
+    /// The depth of the deepest node.
+    pub max_depth: u32,
+}
+
+/// Why a build failed.
+#[derive(Debug, Clone, PartialEq)]
+pub enum BuildError {
+    /// A triangle with a NaN or infinite coordinate.
+    NonFinite {
+        /// The triangle's index.
+        triangle: usize,
+    },
+    /// More triangles than a node's 30-bit fields can count.
+    TooManyTriangles {
+        /// How many there are.
+        count: usize,
+    },
+    /// The worker threads could not be started.
+    Threads {
+        /// What rayon said.
+        message: String,
+    },
+}
+
+impl fmt::Display for BuildError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            BuildError::NonFinite { triangle } => {
+                write!(f, "triangle {triangle} has a non-finite vertex coordinate")
+            }
+            BuildError::TooManyTriangles { count } => write!(
+                f,
+                "{count} triangles is more than a tree can index ({})",
+                kdray_kernel::node::MAX_NODE_FIELD
+            ),
+            BuildError::Threads { message } => {
+                write!(f, "cannot start the build threads: {message}")
+            }
+        }
+    }
+}
+
+impl std::error::Error for BuildError {}
+
+/// Builds a tree over `triangles` with `kind`.
+///
+/// # Errors
+/// [`BuildError`] for non-finite triangles or too many of them.
+pub fn build(
+    triangles: &[Triangle],
+    kind: BuilderKind,
+    params: &BuildParams,
+) -> Result<BuiltTree, BuildError> {
+    build_monitored(triangles, kind, params, &BuildMonitor::new())
+}
+
+/// [`build`], reporting progress and working memory to `monitor`, which
+/// another thread may read while the build runs.
+///
+/// # Errors
+/// [`BuildError`] for non-finite triangles or too many of them, or when
+/// the thread pool cannot start.
+pub fn build_monitored(
+    triangles: &[Triangle],
+    kind: BuilderKind,
+    params: &BuildParams,
+    monitor: &BuildMonitor,
+) -> Result<BuiltTree, BuildError> {
+    if let Some(triangle) = triangles.iter().position(|t| !t.is_finite()) {
+        return Err(BuildError::NonFinite { triangle });
+    }
+    if triangles.len() > kdray_kernel::node::MAX_NODE_FIELD as usize {
+        return Err(BuildError::TooManyTriangles {
+            count: triangles.len(),
+        });
+    }
+    // No thread count: build on the caller's rayon pool (the global one,
+    // or whichever the caller installed), so repeated builds start no
+    // threads. A count: a pool of that size for this build.
+    let Some(threads) = params.threads else {
+        return Ok(build_in_pool(triangles, kind, params, monitor));
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| BuildError::Threads {
+            message: e.to_string(),
+        })?;
+    Ok(pool.install(|| build_in_pool(triangles, kind, params, monitor)))
+}
+
+fn build_in_pool(
+    triangles: &[Triangle],
+    kind: BuilderKind,
+    params: &BuildParams,
+    monitor: &BuildMonitor,
+) -> BuiltTree {
+    use rayon::prelude::*;
+    let boxes: Vec<Bounds> = triangles.par_iter().map(Triangle::bounds).collect();
+    let bounds = if triangles.is_empty() {
+        Bounds::ZERO
+    } else {
+        boxes
+            .par_iter()
+            .copied()
+            .reduce(|| Bounds::EMPTY, |a, b| a.union(&b))
+    };
+    let extent = (0..3).fold(0.0f32, |m, a| m.max(bounds.max[a] - bounds.min[a]));
+    let cost = CostModel::from_params(params);
+    let limits = subdivide::Limits {
+        cost,
+        depth: params.depth_limit(triangles.len()),
+        min_extent: extent * params.min_cell_fraction,
+        lookahead: params.lookahead,
+        lookahead_margin: f64::from(params.lookahead_margin),
+    };
+    let root = match kind {
+        BuilderKind::Sah | BuilderKind::Sweep => {
+            let sweep_max = if kind == BuilderKind::Sah {
+                SWEEP_NONE
+            } else {
+                SWEEP_MAX
+            };
+            let s = sah::EventSah {
+                triangles,
+                cost,
+                sweep_max,
+            };
+            let set = s.root(&boxes);
+            subdivide::subdivide(&s, set, bounds, &limits, monitor)
+        }
+        BuilderKind::Binned | BuilderKind::Median | BuilderKind::Middle => {
+            let leaf = params.baseline_leaf_size;
+            let rule = match kind {
+                BuilderKind::Binned => boxes::Rule::Binned(params.bins),
+                BuilderKind::Median => boxes::Rule::Median(leaf),
+                _ => boxes::Rule::Middle(leaf),
+            };
+            let straddlers = (kind == BuilderKind::Binned).then_some(boxes::Straddlers {
+                triangles,
+                cut_min: CUT_MIN,
+            });
+            let s = boxes::BoxSplitter {
+                rule,
+                cost,
+                straddlers,
+            };
+            let set = boxes::BoxSplitter::root(&boxes);
+            subdivide::subdivide(&s, set, bounds, &limits, monitor)
+        }
+    };
+    flatten(root, bounds)
+}

@@ -1,0 +1,114 @@
+//! `kdray build MESH -o TREE`: load, build, write, report.
+
+use super::json::JsonObject;
+use super::progress::with_bar;
+use super::report::{print_stats, stats_json};
+use super::CmdResult;
+use kdray_tools::blob::write_triangle_tree;
+use kdray_tools::builders::{build_monitored, BuildMonitor, BuildParams, BuilderKind};
+use kdray_tools::stats::{tree_stats, CostModel};
+use kdray_tools::{io, mesh};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `kdray build`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct Args {
+    /// The mesh (.obj).
+    mesh: PathBuf,
+    /// Where to write the tree blob.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// The builder: sah (default), sweep, binned, median or middle.
+    #[arg(long, default_value = "sah")]
+    builder: String,
+    /// Build threads (default: all cores); the tree is the same for any count.
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Cost of a traversal step in the SAH (default: BuildParams' 1.0).
+    #[arg(long)]
+    traversal_cost: Option<f32>,
+    /// Cost of a triangle test in the SAH (default: BuildParams' 0.5).
+    #[arg(long)]
+    intersection_cost: Option<f32>,
+    /// Fraction of cost forgiven for an empty side (default: BuildParams' 0.2).
+    #[arg(long)]
+    empty_bonus: Option<f32>,
+    /// Deepest leaf (default 8 + 1.3 log2 n, at most 64).
+    #[arg(long)]
+    max_depth: Option<u32>,
+    /// Print one JSON object instead of the summary.
+    #[arg(long)]
+    json: bool,
+}
+
+pub(crate) fn run(a: &Args) -> CmdResult {
+    let t = Instant::now();
+    let tris = mesh::load(&a.mesh)?;
+    let load_ms = t.elapsed().as_secs_f64() * 1e3;
+    let kind = BuilderKind::parse(&a.builder)?;
+    if a.threads == Some(0) {
+        return Err("--threads must be at least 1".into());
+    }
+    let d = BuildParams::default();
+    let params = BuildParams {
+        threads: a.threads,
+        traversal_cost: a.traversal_cost.unwrap_or(d.traversal_cost),
+        intersection_cost: a.intersection_cost.unwrap_or(d.intersection_cost),
+        empty_bonus: a.empty_bonus.unwrap_or(d.empty_bonus),
+        max_depth: a.max_depth.or(d.max_depth),
+        ..d
+    };
+    for (name, v) in [
+        ("--traversal-cost", params.traversal_cost),
+        ("--intersection-cost", params.intersection_cost),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(format!("{name} must be a positive number, not {v}").into());
+        }
+    }
+    if !(0.0..1.0).contains(&params.empty_bonus) {
+        return Err(format!(
+            "--empty-bonus must be in [0, 1), not {}",
+            params.empty_bonus
+        )
+        .into());
+    }
+    let monitor = BuildMonitor::new();
+    let t = Instant::now();
+    let built = with_bar(&monitor, || build_monitored(&tris, kind, &params, &monitor))
+        .map_err(|e| format!("{}: {e}", a.mesh.display()))?;
+    let build_ms = t.elapsed().as_secs_f64() * 1e3;
+    let blob = write_triangle_tree(&built, &tris)?;
+    let tree = blob
+        .tree()
+        .map_err(|e| format!("internal error: the built tree does not validate: {e}"))?;
+    let stats = tree_stats(&tree, CostModel::from_params(&params));
+    io::write_bytes(&a.output, blob.as_bytes())?;
+    if a.json {
+        let j = JsonObject::default()
+            .str("mesh", &a.mesh.display().to_string())
+            .str("output", &a.output.display().to_string())
+            .str("builder", kind.name())
+            .num("load_ms", load_ms)
+            .num("build_ms", build_ms)
+            .num(
+                "peak_build_bytes_per_triangle",
+                monitor.peak_bytes() as f64 / tris.len().max(1) as f64,
+            )
+            .str(
+                "timing",
+                "build_ms excludes reading and parsing the mesh and writing the blob",
+            );
+        say!("{}", stats_json(j, &stats).finish());
+    } else {
+        say!("built {} -> {}", a.mesh.display(), a.output.display());
+        say!("  load               {load_ms:.1} ms");
+        say!(
+            "  build              {build_ms:.1} ms ({} builder)",
+            kind.name()
+        );
+        print_stats(&stats);
+    }
+    Ok(())
+}

@@ -87,7 +87,7 @@ pub use geometry::{ray_is_valid, Axis, Bounds, Hit, Ray, MISS, OCCLUDED};
 pub use points::{
     distance2, knn_brute, nearest_brute, within_brute, BufferTooSmall, Neighbour, PointTree,
 };
-pub use triangle::{any_hit_brute, closest_hit_brute, Triangle};
+pub use triangle::{any_hit_brute, closest_hit_brute, SurfacePoint, Triangle, MAX_COORD};
 pub use triangle_tree::packet::{Packet, Packet16, Packet4, Packet8, PacketWidth};
 pub use triangle_tree::{TraversalCounts, TriangleTree};
 pub use wire::Aligned;

@@ -3,7 +3,6 @@
 //! shadows), and packets of 4 and 8 render exactly what single rays do.
 
 use glam::Vec3;
-use kdray_kernel::Bounds;
 use kdray_kernel::{PacketWidth, Triangle};
 use kdray_tools::blob::write_triangle_tree;
 use kdray_tools::builders::{build, BuildParams, BuilderKind};
@@ -32,17 +31,13 @@ fn floor_and_tetrahedron() -> Vec<Triangle> {
     ]
 }
 
-fn bounds(tris: &[Triangle]) -> Bounds {
-    tris.iter().fold(Bounds::EMPTY, |b, t| b.union(&t.bounds()))
-}
-
 /// Renders `tris` seen by `camera` with the tree at every packet width and
 /// by brute force, and checks all four pictures are the same.
 fn check_tree_matches_brute(tris: &[Triangle], camera: Camera, w: u32, h: u32) -> Image {
     let built = build(tris, BuilderKind::default(), &BuildParams::default()).unwrap();
     let blob = write_triangle_tree(&built, tris).unwrap();
     let tree = blob.tree().unwrap();
-    let params = RenderParams::new(camera, w, h, &bounds(tris));
+    let params = RenderParams::new(camera, w, h);
     let brute = render(&BruteTracer(tris), &params, &|| ());
     assert_eq!((brute.width, brute.height), (w, h));
     for width in [
@@ -103,12 +98,7 @@ fn heatmap_has_a_legend_and_costs_that_vary() {
     .unwrap();
     let blob = write_triangle_tree(&built, &scene.triangles).unwrap();
     let tree = blob.tree().unwrap();
-    let params = RenderParams::new(
-        Camera::framing(&scene.focus),
-        80,
-        60,
-        &bounds(&scene.triangles),
-    );
+    let params = RenderParams::new(Camera::framing(&scene.focus), 80, 60);
     let calls = std::sync::atomic::AtomicU32::new(0);
     let heat = render_heatmap(&tree, &params, &|| {
         calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);

@@ -16,19 +16,35 @@ pub(crate) use span::Span;
 
 use crate::geometry::Ray;
 use core::ops::{BitAnd, BitOr, Div, Mul};
+
+/// The arithmetic the triangle test's `t` window shares between `f32` and
+/// lane vectors (one generic body, the same operations in one order).
+pub(crate) trait Real: Span + Mul<Output = Self> + Div<Output = Self> {
+    /// `x` (in every lane).
+    fn splat(x: f32) -> Self;
+    /// `|x|` (in every lane; the sign bit cleared, as `f32::abs`).
+    fn abs(self) -> Self;
+}
+
+impl Real for f32 {
+    #[inline(always)]
+    fn splat(x: f32) -> f32 {
+        x
+    }
+    #[inline(always)]
+    fn abs(self) -> f32 {
+        f32::abs(self)
+    }
+}
 use wide::{f32x16, f32x4, f32x8, i32x16, i32x4, i32x8};
 
 /// A vector of `N` `f32` lanes.
-pub(crate) trait Lanes<const N: usize>:
-    Span + Mul<Output = Self> + Div<Output = Self> + BitAnd<Output = Self> + BitOr<Output = Self>
-{
-    fn splat(x: f32) -> Self;
+/// `splat` and `abs` come from [`Real`].
+pub(crate) trait Lanes<const N: usize>: Real + BitAnd<Output = Self> + BitOr<Output = Self> {
     fn from_array(a: [f32; N]) -> Self;
     fn to_array(self) -> [f32; N];
     /// Lane `l`, read in place (NaN for `l >= N`).
     fn lane(&self, l: usize) -> f32;
-    /// `|x|` lane by lane (the sign bit cleared, as `f32::abs`).
-    fn abs(self) -> Self;
     /// `N` rays (zero rays past the end of `rays`) as the columns
     /// `[origin x, y, z, tmin, dir x, y, z, tmax]`: a transpose in
     /// registers, not `N` scalar stores reloaded as vectors.
@@ -79,11 +95,18 @@ macro_rules! impl_lanes {
             }
         }
 
-        impl Lanes<$n> for $v {
+        impl Real for $v {
             #[inline(always)]
             fn splat(x: f32) -> Self {
                 <$v>::splat(x)
             }
+            #[inline(always)]
+            fn abs(self) -> Self {
+                <$v>::abs(self)
+            }
+        }
+
+        impl Lanes<$n> for $v {
             #[inline(always)]
             fn from_array(a: [f32; $n]) -> Self {
                 <$v>::new(a)
@@ -95,10 +118,6 @@ macro_rules! impl_lanes {
             #[inline(always)]
             fn lane(&self, l: usize) -> f32 {
                 self.as_array().get(l).copied().unwrap_or(f32::NAN)
-            }
-            #[inline(always)]
-            fn abs(self) -> Self {
-                <$v>::abs(self)
             }
             #[inline(always)]
             fn columns(rays: &[Ray]) -> [Self; 8] {

@@ -26,6 +26,6 @@ pub fn any_hit_brute(triangles: &[Triangle], ray: &Ray) -> bool {
     ShearedRay::new(ray).is_some_and(|sr| {
         triangles
             .iter()
-            .any(|tri| sr.intersect(tri, ray.tmin, ray.tmax).is_some())
+            .any(|tri| sr.intersects(tri, ray.tmin, ray.tmax))
     })
 }

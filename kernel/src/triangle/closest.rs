@@ -30,6 +30,11 @@ impl Closest {
     /// Tests triangle `prim` and keeps it if it wins.
     #[inline(always)]
     pub(crate) fn offer(&mut self, sr: &ShearedRay, tri: &Triangle, prim: u32, tmin: f32) {
+        // The best triangle tested again (it lies in several leaves) gives
+        // the same answer, which cannot win: skip its `f64` `t`.
+        if prim == self.prim {
+            return;
+        }
         if let Some(h) = sr.intersect(tri, tmin, self.t) {
             self.keep(h, prim);
         }

@@ -3,9 +3,12 @@
 //! same operations in the same order (no FMA, true division), so each
 //! lane's `t`, edge functions and determinant are the single ray's bits.
 //! Lanes whose `f32` edge function is exactly zero are recomputed by the
-//! scalar [`edge_functions_f64`], as the single ray does.
+//! scalar [`edge_functions_f64`], as the single ray does; lanes whose `t`
+//! window ([`t_window`], shared with the scalar test) straddles the
+//! interval get the scalar `f64` `t` ([`plane_t`](super::plane_t)), one
+//! lane at a time.
 
-use super::edge_functions_f64;
+use super::{edge_functions_f64, t_window, WELL_SHAPED};
 use crate::lanes::Lanes;
 
 /// The lanes a triangle hits, with the unreduced hit of each lane.
@@ -27,9 +30,12 @@ pub(crate) struct LaneHits<V> {
 /// runs along +z, `sz` the shear's `1/d[kz]`; the lanes in `live` that hit
 /// within their `[tmin, tmax]`, `None` when none does. Lanes may hold rays
 /// (a packet against one triangle) or triangles (one ray against a leaf's
-/// triangles): the arithmetic is the same.
+/// triangles): the arithmetic is the same. `exact_t(l)` is lane `l`'s
+/// [`plane_t`](super::plane_t); `ANY`: only the hit mask is wanted (any hit), and lanes
+/// clearly inside their interval skip the `f64` `t`.
 #[inline(always)]
-pub(crate) fn watertight<V: Lanes<N>, const N: usize>(
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn watertight<V: Lanes<N>, const N: usize, const ANY: bool>(
     a: (V, V, V),
     b: (V, V, V),
     c: (V, V, V),
@@ -37,6 +43,7 @@ pub(crate) fn watertight<V: Lanes<N>, const N: usize>(
     live: u32,
     tmin: V,
     tmax: V,
+    exact_t: impl Fn(usize) -> f32,
 ) -> Option<LaneHits<V>> {
     let ((ax, ay, az), (bx, by, bz), (cx, cy, cz)) = (a, b, c);
     // 2-D edge functions: u weighs vertex 0, v vertex 1, w vertex 2.
@@ -57,20 +64,42 @@ pub(crate) fn watertight<V: Lanes<N>, const N: usize>(
         return None;
     }
     let det = u + v + w;
-    let t_scaled = u * (sz * az) + v * (sz * bz) + w * (sz * cz);
-    let t = t_scaled / det;
-    // As the scalar test: a zero or overflowed determinant is no hit,
-    // nor is a t outside [tmin, tmax] or not finite. `0 < |x| < inf`
-    // is `x != 0 && x.is_finite()`, and `|x| < inf` is
-    // `x.is_finite()` (NaN fails every comparison).
+    // As the scalar test: a zero or overflowed determinant is no hit.
+    // `0 < |x| < inf` is `x != 0 && x.is_finite()` (NaN fails every
+    // comparison).
     let inf = V::splat(f32::INFINITY);
-    let (det_abs, t_abs) = (det.abs(), t.abs());
-    let ok = det_abs.gt_mask(zero)
-        & det_abs.lt_mask(inf)
-        & t.ge_mask(tmin)
-        & t.le_mask(tmax)
-        & t_abs.lt_mask(inf);
-    hit &= ok.bits();
+    let det_abs = det.abs();
+    hit &= (det_abs.gt_mask(zero) & det_abs.lt_mask(inf)).bits();
+    if hit == 0 {
+        return None;
+    }
+    let (t_est, slack, shape) = t_window([ax, ay, bx, by, cx, cy], [az, bz, cz], [u, v, w], det, sz);
+    let (lo, hi) = (t_est - slack, t_est + slack);
+    // Windows clearly outside [tmin, tmax] (a NaN window rejects nothing).
+    hit &= !(hi.lt_mask(tmin) | lo.gt_mask(tmax)).bits();
+    if hit == 0 {
+        return None;
+    }
+    // An any-hit query takes the windows clearly inside as they are.
+    let sure = if ANY {
+        let well = shape.lt_mask(V::splat(WELL_SHAPED));
+        hit & (lo.ge_mask(tmin) & hi.le_mask(tmax) & hi.lt_mask(inf) & well).bits()
+    } else {
+        0
+    };
+    let mut t = t_est.to_array();
+    let mut exact = hit & !sure;
+    while exact != 0 {
+        let l = exact.trailing_zeros() as usize;
+        exact &= exact - 1;
+        if let Some(x) = t.get_mut(l) {
+            *x = exact_t(l);
+        }
+    }
+    let t = V::from_array(t);
+    // The f64 t's verdict: within [tmin, tmax] and finite.
+    let ok = t.ge_mask(tmin) & t.le_mask(tmax) & t.abs().lt_mask(inf);
+    hit &= ok.bits() | sure;
     (hit != 0).then_some(LaneHits { hit, t, v, w, det })
 }
 

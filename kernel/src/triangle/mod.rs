@@ -10,6 +10,38 @@
 //! function rounds to exactly zero it is recomputed in `f64`, as the paper
 //! prescribes, so its sign is exact.
 //!
+//! # Where `t` comes from
+//! The edge functions decide hit or miss; they do not give an accurate `t`.
+//! Interpolating the sheared vertex heights by them cancels badly when the
+//! triangle is large beside the distance to its hit (a floor of 1000 units
+//! hit 1.5 units from the eye: 1e-4 relative error) or nearly parallel to
+//! the ray, and its sign near `t = 0` is noise (a ray leaving a surface
+//! misses it as often as not). So `t` is computed twice:
+//! 1. an `f32` estimate from the edge functions with a conservative bound
+//!    on its error ([`t_window`]): it rejects the triangles that clearly lie
+//!    outside `[tmin, tmax]` (behind the origin, beyond the best hit so far)
+//!    and accepts, for an any-hit query, those clearly inside;
+//! 2. for the others, the plane's `t = n·(v0 - o) / n·d` in `f64`
+//!    ([`plane_t`]), rounded once to `f32`: within an ulp or two of the
+//!    correctly rounded `t` wherever the hit is well conditioned, and
+//!    exactly `0` when the origin lies on the triangle's plane within the
+//!    `f64` rounding of that formula, so a ray starting on a triangle with
+//!    `tmin <= 0` hits it at `t = 0`.
+//!
+//! The window is wide enough (16 times the error the analysis bounds) that
+//! it never rejects a triangle the `f64` `t` would accept: the answer is
+//! the one the `f64` `t` gives, whatever the order triangles are tested in.
+//!
+//! # Coordinate range
+//! The edge functions are products of coordinate differences in `f32`; they
+//! stay finite while every vertex coordinate and the ray origin lie within
+//! `±`[`MAX_COORD`] (2^60). The builders refuse triangles outside it. A ray
+//! whose origin lies outside it gets a defined answer (tree, packets and
+//! brute force agree bit for bit, nothing panics), but a triangle whose
+//! edge functions overflow is missed. At the small end, a triangle whose
+//! projected edge products underflow `f32` (edges below about 2^-63 units
+//! seen from the ray) is missed too.
+//!
 //! This single function defines every answer kdray gives: the tree, the
 //! packets and the brute-force oracle all call it (or its lane-wise twin,
 //! which performs the same operations in the same order).
@@ -17,12 +49,23 @@
 mod brute;
 mod closest;
 pub(crate) mod lanes;
+mod spawn;
 
 pub use brute::{any_hit_brute, closest_hit_brute};
 pub(crate) use closest::Closest;
+pub use spawn::SurfacePoint;
 
 use crate::geometry::{ray_is_valid, Bounds, Hit, Ray};
+use crate::lanes::Real;
 use bytemuck::{Pod, Zeroable};
+
+/// The largest vertex coordinate magnitude the watertight test handles:
+/// 2^60 (about 1.15e18). With every coordinate of the triangle and of the
+/// ray origin within `±MAX_COORD`, a sheared coordinate is below `4 ·
+/// MAX_COORD`, an edge function below `32 · MAX_COORD²` and their sum
+/// below `96 · MAX_COORD² < f32::MAX`: no product overflows.
+pub const MAX_COORD: f32 = 1_152_921_504_606_846_976.0;
+
 
 /// A triangle: three vertices. `repr(C)`, Pod, 36 bytes; the blob stores
 /// triangles in this layout, in mesh order.
@@ -53,7 +96,30 @@ impl Triangle {
     pub fn is_finite(&self) -> bool {
         self.v.iter().flatten().all(|c| c.is_finite())
     }
+
+    /// Are all nine coordinates within `±`[`MAX_COORD`] (and so finite)?
+    #[inline]
+    #[must_use]
+    pub fn in_range(&self) -> bool {
+        self.v.iter().flatten().all(|c| c.abs() <= MAX_COORD)
+    }
+
+    /// The geometric normal `(v1 - v0) × (v2 - v0)`, not normalised (zero
+    /// for a degenerate triangle).
+    #[inline]
+    #[must_use]
+    pub fn normal(&self) -> [f32; 3] {
+        let [a, b, c] = self.v;
+        let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+        [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ]
+    }
 }
+
 
 /// A ray prepared for the watertight test: its origin, the axis permutation
 /// that makes z the dominant direction axis, and the shear constants.
@@ -61,6 +127,8 @@ impl Triangle {
 pub(crate) struct ShearedRay {
     /// The ray origin.
     pub(crate) org: [f32; 3],
+    /// The ray direction (for the `f64` `t`, [`plane_t`]).
+    pub(crate) dir: [f32; 3],
     /// The permuted axes `[kx, ky, kz]`; `kz` is the dominant axis of the
     /// direction, and `kx, ky` are swapped when `dir[kz] < 0` to keep the
     /// winding of the projected triangle.
@@ -131,15 +199,52 @@ impl ShearedRay {
         }
         Some(ShearedRay {
             org: ray.origin,
+            dir: ray.dir,
             k: [kx, ky, kz],
             s: [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]],
         })
     }
 
-    /// The watertight test of `tri` against this ray over `[tmin, tmax]`.
+    /// The watertight test of `tri` against this ray over `[tmin, tmax]`,
+    /// with the accurate `t` of the module docs.
     #[inline(always)]
     #[must_use]
     pub(crate) fn intersect(&self, tri: &Triangle, tmin: f32, tmax: f32) -> Option<TriangleHit> {
+        let (e, (t_est, slack, _)) = self.edges(tri)?;
+        // Clearly outside [tmin, tmax]: no f64 t needed. A NaN estimate
+        // rejects nothing.
+        if t_est + slack < tmin || t_est - slack > tmax {
+            return None;
+        }
+        let t = plane_t(&self.org, &self.dir, tri);
+        (t >= tmin && t <= tmax && t.is_finite()).then_some(TriangleHit { t, ..e })
+    }
+
+    /// Does `tri` hit this ray within `[tmin, tmax]`? The answer
+    /// [`ShearedRay::intersect`] gives, without the `f64` `t` when the
+    /// estimate's window lies inside the interval.
+    #[inline(always)]
+    #[must_use]
+    pub(crate) fn intersects(&self, tri: &Triangle, tmin: f32, tmax: f32) -> bool {
+        let Some((_, (t_est, slack, shape))) = self.edges(tri) else {
+            return false;
+        };
+        let (lo, hi) = (t_est - slack, t_est + slack);
+        if hi < tmin || lo > tmax {
+            return false;
+        }
+        if lo >= tmin && hi <= tmax && hi < f32::INFINITY && shape < WELL_SHAPED {
+            return true;
+        }
+        let t = plane_t(&self.org, &self.dir, tri);
+        t >= tmin && t <= tmax && t.is_finite()
+    }
+
+    /// The watertight decision: the edge functions and determinant of a
+    /// ray that passes through `tri` (with its `t` estimate left in the
+    /// hit, unused) and the estimate's window, or `None` for a miss.
+    #[inline(always)]
+    fn edges(&self, tri: &Triangle) -> Option<(TriangleHit, (f32, f32, f32))> {
         // Clamped as in leaf_lanes: the axes are below 3 by construction,
         // but the optimiser cannot see it through the field, and a bounds
         // check is a panic path (firmware/); the clamps are hoisted out of
@@ -182,17 +287,106 @@ impl ShearedRay {
         if det == 0.0 || !det.is_finite() {
             return None;
         }
-        let t_scaled = u * (sz * az) + v * (sz * bz) + w * (sz * cz);
-        let t = t_scaled / det;
-        // A hit needs a finite t: with a tiny direction, t can overflow to
-        // infinity, a point no cell interval reaches.
-        if t >= tmin && t <= tmax && t.is_finite() {
-            Some(TriangleHit { t, v, w, det })
-        } else {
-            None
-        }
+        let window = t_window([ax, ay, bx, by, cx, cy], [az, bz, cz], [u, v, w], det, sz);
+        Some((TriangleHit { t: window.0, v, w, det }, window))
     }
 }
+
+/// The window's scale on the sheared shape's conditioning, `2^-12`: the
+/// analysis below bounds the error by `2^-16.2` of that term.
+const WINDOW_SHAPE: f32 = 1.0 / 4096.0;
+/// The window's scale on the heights, `2^-18`: the rounding of the
+/// barycentric sum and of the products bounds it by `2^-20.3`.
+const WINDOW_HEIGHT: f32 = 1.0 / 262_144.0;
+
+/// The `f32` estimate of `t` from the sheared vertices (`xy`: `[ax, ay,
+/// bx, by, cx, cy]`, `z`: their heights), their edge functions `uvw`
+/// (one sign, sum `det`, nonzero) and the shear's `sz = 1/d[kz]`; with a
+/// bound on its distance to [`plane_t`]: `(t_est, slack, shape)`, where
+/// `shape = 2^-12 · M (M + Z) / |det|` says how well the `f32` determinant
+/// stands above its rounding (see [`WELL_SHAPED`]).
+///
+/// The bound (for each lane alike, the operations in one order): a
+/// sheared coordinate is off by at most `2^-22 (M + Z)`, with `M` the
+/// largest sheared `|x|, |y|` and `Z` the largest `|z|`; an edge function
+/// by `2^-19.8 M (M + Z)`, a barycentric weight by four of those over
+/// `|det|`. The weights sum to 1 within `2^-21`, so their errors move `t`
+/// by at most `2^-16.2 · M (M + Z) / |det| · (zmax - zmin) |sz|` plus
+/// `2^-20.3 · Z |sz|` for the sum's and the heights' rounding and the
+/// `f64` `t`'s own. Overflow (huge coordinates, near-parallel rays) makes
+/// the window infinite or NaN: it then rejects nothing.
+#[inline(always)]
+pub(crate) fn t_window<S: Real>(
+    xy: [S; 6],
+    z: [S; 3],
+    uvw: [S; 3],
+    det: S,
+    sz: S,
+) -> (S, S, S) {
+    let [ax, ay, bx, by, cx, cy] = xy;
+    let [az, bz, cz] = z;
+    let [u, v, w] = uvw;
+    let rdet = S::splat(1.0) / det;
+    let t_est = ((u * rdet) * az + (v * rdet) * bz + (w * rdet) * cz) * sz;
+    let m = ax.abs().max(ay.abs()).max(bx.abs()).max(by.abs()).max(cx.abs()).max(cy.abs());
+    let (zmax, zmin) = (az.max(bz).max(cz), az.min(bz).min(cz));
+    let zabs = zmax.max(S::splat(0.0) - zmin);
+    let asz = sz.abs();
+    let shape = m * (m + zabs) * rdet.abs() * S::splat(WINDOW_SHAPE);
+    let slack = shape * ((zmax - zmin) * asz) + zabs * asz * S::splat(WINDOW_HEIGHT);
+    (t_est, slack, shape)
+}
+
+/// An any-hit test takes a window inside `[tmin, tmax]` without the `f64`
+/// `t` only when `shape` is below this (16): the determinant is then more
+/// than `2^-16 M (M + Z)`, many times its own rounding, so the triangle is
+/// no sliver of rounding noise and the ray not in its plane, and
+/// [`plane_t`] gives a number (a degenerate triangle can pass the `f32`
+/// edge test by rounding, and [`plane_t`] rejects it).
+pub(crate) const WELL_SHAPED: f32 = 16.0;
+
+/// The ray parameter where `org + t dir` meets the plane of `tri`:
+/// `n·(v0 - org) / n·dir` with `n = (v1 - v0) × (v2 - v0)`, in `f64`
+/// from the `f32` inputs, rounded once to `f32`.
+///
+/// A difference of two `f32` is exact in `f64` (for exponents up to 29
+/// apart; else rounded once); each normal component rounds two products
+/// and a difference, a dot product three products and two sums, so the
+/// numerator is off by at most about `2^-50 · |e1|₁ |e2|₁ |v0 - org|₁` and
+/// the denominator by `2^-50 · |e1|₁ |e2|₁ |dir|₁`. Within `2^-48` of those
+/// (four times the bounds) they are taken as zero: a zero numerator is an
+/// origin on the plane, and `t` is `+0`; a zero denominator is a ray in
+/// the plane or a degenerate triangle (whose normal is rounding noise),
+/// and `t` is NaN: no hit.
+#[inline]
+#[must_use]
+pub(crate) fn plane_t(org: &[f32; 3], dir: &[f32; 3], tri: &Triangle) -> f32 {
+    let p = tri.v.map(|c| c.map(f64::from));
+    let (o, d) = (org.map(f64::from), dir.map(f64::from));
+    let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
+    let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
+    let a = [p[0][0] - o[0], p[0][1] - o[1], p[0][2] - o[2]];
+    let n = [
+        e1[1] * e2[2] - e1[2] * e2[1],
+        e1[2] * e2[0] - e1[0] * e2[2],
+        e1[0] * e2[1] - e1[1] * e2[0],
+    ];
+    let num = n[0] * a[0] + n[1] * a[1] + n[2] * a[2];
+    let den = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+    let l1 = |x: [f64; 3]| x[0].abs() + x[1].abs() + x[2].abs();
+    let noise = l1(e1) * l1(e2) * PLANE_NOISE;
+    // `!(>)`: a NaN bound is no plane either.
+    if !(den.abs() > noise * l1(d)) {
+        return f32::NAN;
+    }
+    if num.abs() <= noise * l1(a) {
+        return 0.0;
+    }
+    (num / den) as f32
+}
+
+/// [`plane_t`]'s zero threshold relative to the operands, `2^-48`.
+pub(crate) const PLANE_NOISE: f64 = 1.0 / 281_474_976_710_656.0;
 
 /// The three edge functions in `f64`, rounded back: exact signs where the
 /// `f32` products cancelled to zero. Inputs: `[ax, ay, bx, by, cx, cy]`.

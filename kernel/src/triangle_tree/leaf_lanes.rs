@@ -21,7 +21,7 @@
 use crate::geometry::MISS;
 use crate::lanes::Lanes;
 use crate::triangle::lanes::{watertight, LaneHits};
-use crate::triangle::{Closest, ShearedRay, Triangle, TriangleHit};
+use crate::triangle::{plane_t, Closest, ShearedRay, Triangle, TriangleHit};
 
 /// Leaves with at least this many triangles are tested in lanes; smaller
 /// ones one triangle at a time (measured on bunny camera rays: 2 and 3
@@ -31,7 +31,9 @@ pub(crate) const LANE_LEAF_MIN: usize = 3;
 /// A ray prepared for testing triangles in lanes: the scalar
 /// [`ShearedRay`]'s permutation, and its origin (permuted) and shear,
 /// splatted.
-pub(crate) struct LeafRay<V, const N: usize> {
+pub(crate) struct LeafRay<'r, V, const N: usize> {
+    /// The ray, for the `f64` `t`.
+    sr: &'r ShearedRay,
     /// [`ShearedRay`]'s permutation, clamped to 2 so that the compiler
     /// sees every index in range (it is never above 2).
     k: [usize; 3],
@@ -39,12 +41,13 @@ pub(crate) struct LeafRay<V, const N: usize> {
     shear: [V; 3],
 }
 
-impl<V: Lanes<N>, const N: usize> LeafRay<V, N> {
+impl<'r, V: Lanes<N>, const N: usize> LeafRay<'r, V, N> {
     /// Splats `sr`'s constants.
     #[inline(always)]
-    pub(crate) fn new(sr: &ShearedRay) -> Self {
+    pub(crate) fn new(sr: &'r ShearedRay) -> Self {
         let k = sr.k.map(|k| k.min(2));
         LeafRay {
+            sr,
             k,
             org: k.map(|k| V::splat(sr.org[k])),
             shear: sr.s.map(V::splat),
@@ -52,16 +55,25 @@ impl<V: Lanes<N>, const N: usize> LeafRay<V, N> {
     }
 
     /// The lanes of `tris[prims]` (at most `N`) that `sr` hits within
-    /// `[tmin, tmax]`.
+    /// `[tmin, tmax]` (`ANY`: as [`watertight`]'s), leaving out triangle
+    /// `skip` (the best hit so far: tested again, in another leaf, it
+    /// gives the same answer, which cannot win).
     #[inline(always)]
-    fn hits(&self, tris: &[Triangle], prims: &[u32], tmin: f32, tmax: f32) -> Option<LaneHits<V>> {
+    fn hits<const ANY: bool>(
+        &self,
+        tris: &[Triangle],
+        prims: &[u32],
+        skip: u32,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<LaneHits<V>> {
         // Coordinate c of vertex j of each triangle in row [j][c]: scalar
         // stores with fixed row indices, read back as vectors, permuted by
         // choosing the rows (`k`).
         let mut rows = [[[0.0f32; N]; 3]; 3];
         let mut live = 0u32;
         for (l, &p) in prims.iter().enumerate() {
-            let Some(tri) = tris.get(p as usize) else {
+            let Some(tri) = tris.get(p as usize).filter(|_| p != skip) else {
                 continue;
             };
             // `prims` holds at most N: `l % N` is `l`, and proves it.
@@ -84,7 +96,13 @@ impl<V: Lanes<N>, const N: usize> LeafRay<V, N> {
         };
         let [vx, vy, vz] = &rows;
         let (a, b, c) = (rel(vx), rel(vy), rel(vz));
-        watertight(a, b, c, self.shear[2], live, V::splat(tmin), V::splat(tmax))
+        let sr = self.sr;
+        let exact_t = |l: usize| {
+            let tri = prims.get(l).and_then(|&p| tris.get(p as usize));
+            tri.map_or(f32::NAN, |tri| plane_t(&sr.org, &sr.dir, tri))
+        };
+        let (tmin, tmax) = (V::splat(tmin), V::splat(tmax));
+        watertight::<V, N, ANY>(a, b, c, self.shear[2], live, tmin, tmax, exact_t)
     }
 
     /// Tests the triangles `prims` over `[tmin, best.t]`, `N` at a time,
@@ -92,7 +110,7 @@ impl<V: Lanes<N>, const N: usize> LeafRay<V, N> {
     #[inline(always)]
     pub(crate) fn closest(&self, tris: &[Triangle], prims: &[u32], tmin: f32, best: &mut Closest) {
         for chunk in prims.chunks(N) {
-            let Some(h) = self.hits(tris, chunk, tmin, best.t) else {
+            let Some(h) = self.hits::<false>(tris, chunk, best.prim, tmin, best.t) else {
                 continue;
             };
             // The chunk's winner (usually its one hit lane) by the closest-hit
@@ -126,7 +144,7 @@ impl<V: Lanes<N>, const N: usize> LeafRay<V, N> {
     pub(crate) fn any(&self, tris: &[Triangle], prims: &[u32], tmin: f32, tmax: f32) -> bool {
         prims
             .chunks(N)
-            .any(|chunk| self.hits(tris, chunk, tmin, tmax).is_some())
+            .any(|chunk| self.hits::<true>(tris, chunk, MISS, tmin, tmax).is_some())
     }
 }
 

@@ -133,7 +133,7 @@ impl<'a, T: Tally> Visit<'a, T> for AnyVisit<'_> {
         for p in prims {
             if let Some(tri) = tris.get(p as usize) {
                 tally.triangles(1);
-                if self.sr.intersect(tri, self.tmin, self.tmax).is_some() {
+                if self.sr.intersects(tri, self.tmin, self.tmax) {
                     return true;
                 }
             }

@@ -185,6 +185,14 @@ pub enum BuildError {
         /// The triangle's index.
         triangle: usize,
     },
+    /// A triangle with a vertex coordinate beyond the kernel's range,
+    /// `±`[`kdray_kernel::MAX_COORD`].
+    OutOfRange {
+        /// The triangle's index.
+        triangle: usize,
+        /// The offending coordinate.
+        coordinate: f32,
+    },
     /// More triangles than a node's 30-bit fields can count.
     TooManyTriangles {
         /// How many there are.
@@ -203,6 +211,15 @@ impl fmt::Display for BuildError {
             BuildError::NonFinite { triangle } => {
                 write!(f, "triangle {triangle} has a non-finite vertex coordinate")
             }
+            BuildError::OutOfRange {
+                triangle,
+                coordinate,
+            } => write!(
+                f,
+                "triangle {triangle} has a vertex coordinate {coordinate:e} beyond the \
+                 kernel's range of ±{:e} (kdray_kernel::MAX_COORD)",
+                kdray_kernel::MAX_COORD
+            ),
             BuildError::TooManyTriangles { count } => write!(
                 f,
                 "{count} triangles is more than a tree can index ({})",
@@ -220,7 +237,8 @@ impl std::error::Error for BuildError {}
 /// Builds a tree over `triangles` with `kind`.
 ///
 /// # Errors
-/// [`BuildError`] for non-finite triangles or too many of them.
+/// [`BuildError`] for non-finite triangles, triangles beyond
+/// [`kdray_kernel::MAX_COORD`] or too many of them.
 pub fn build(
     triangles: &[Triangle],
     kind: BuilderKind,
@@ -233,7 +251,8 @@ pub fn build(
 /// another thread may read while the build runs.
 ///
 /// # Errors
-/// [`BuildError`] for non-finite triangles or too many of them, or when
+/// [`BuildError`] for non-finite triangles, triangles beyond
+/// [`kdray_kernel::MAX_COORD`] or too many of them, or when
 /// the thread pool cannot start.
 pub fn build_monitored(
     triangles: &[Triangle],
@@ -243,6 +262,18 @@ pub fn build_monitored(
 ) -> Result<BuiltTree, BuildError> {
     if let Some(triangle) = triangles.iter().position(|t| !t.is_finite()) {
         return Err(BuildError::NonFinite { triangle });
+    }
+    if let Some(triangle) = triangles.iter().position(|t| !t.in_range()) {
+        let coordinate = triangles[triangle]
+            .v
+            .iter()
+            .flatten()
+            .copied()
+            .fold(0.0f32, |m, c| if c.abs() > m.abs() { c } else { m });
+        return Err(BuildError::OutOfRange {
+            triangle,
+            coordinate,
+        });
     }
     if triangles.len() > kdray_kernel::node::MAX_NODE_FIELD as usize {
         return Err(BuildError::TooManyTriangles {

@@ -114,8 +114,7 @@ fn draw(
     dir: &std::path::Path,
 ) -> CmdResult {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: cannot create: {e}", dir.display()))?;
-    let all = tree.bounds();
-    let params = RenderParams::new(camera, 640, 480, &all);
+    let params = RenderParams::new(camera, 640, 480);
     let t = Instant::now();
     let tracer = TreeTracer {
         tree,

@@ -95,7 +95,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     if !(camera.fov_deg > 0.0 && camera.fov_deg < 180.0) {
         return Err("--fov must be between 0 and 180 degrees".into());
     }
-    let params = RenderParams::new(camera, a.width, a.height, &scene);
+    let params = RenderParams::new(camera, a.width, a.height);
     let t = Instant::now();
     let image = if a.heatmap {
         let bar = counted_bar(u64::from(a.height));

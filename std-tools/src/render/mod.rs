@@ -14,8 +14,7 @@ pub use tracer::{BruteTracer, Tracer, TreeTracer};
 
 use crate::camera::Camera;
 use glam::Vec3;
-use kdray_kernel::Bounds;
-use kdray_kernel::{Hit, PacketWidth, Ray, Triangle};
+use kdray_kernel::{Hit, PacketWidth, Ray, SurfacePoint, Triangle};
 use rayon::prelude::*;
 
 /// What to render and from where.
@@ -29,27 +28,22 @@ pub struct RenderParams {
     pub height: u32,
     /// The point light.
     pub light: Vec3,
-    /// How far a shadow ray starts off the surface, along its normal (so
-    /// it does not hit the triangle it leaves).
-    pub offset: f32,
 }
 
 impl RenderParams {
     /// `camera` at `width` x `height`, with the light above and to the
-    /// left of the eye and the shadow offset scaled to `scene` (the bounds
-    /// of everything that can cast a shadow).
+    /// left of the eye. Shadow rays need no scene-sized offset: they start
+    /// past the hit point's own error bound ([`SurfacePoint`]).
     #[must_use]
-    pub fn new(camera: Camera, width: u32, height: u32, scene: &Bounds) -> RenderParams {
+    pub fn new(camera: Camera, width: u32, height: u32) -> RenderParams {
         let fwd = (camera.target - camera.eye).normalize_or(Vec3::NEG_Z);
         let right = fwd.cross(camera.up).normalize_or(Vec3::X);
         let dist = (camera.target - camera.eye).length();
-        let diag = (Vec3::from(scene.max) - Vec3::from(scene.min)).length();
         RenderParams {
             camera,
             width,
             height,
             light: camera.eye + (camera.up * 0.9 - right * 0.6) * dist,
-            offset: (diag * 1e-5).max(f32::MIN_POSITIVE),
         }
     }
 }
@@ -149,9 +143,9 @@ impl Surface {
         let cos = n.dot(view);
         // The normal on the viewer's side of the triangle.
         let n = if cos > 0.0 { -n } else { n };
-        let point = ray.at(hit.t) + n * p.offset;
-        let to_light = p.light - point;
-        let shadow = (n.dot(to_light) > 0.0).then(|| Ray::with_range(point, to_light, 0.0, 1.0));
+        let surface = SurfacePoint::new(tri, hit);
+        let to_light = p.light - Vec3::from(surface.p);
+        let shadow = (n.dot(to_light) > 0.0).then(|| surface.spawn_to(p.light.to_array()));
         Some(Surface {
             facing: cos.abs(),
             shadow,

@@ -10,7 +10,7 @@ use super::lane_rays::LaneRays;
 use crate::geometry::Axis;
 use crate::lanes::Lanes;
 use crate::triangle::lanes::{watertight, LaneHits};
-use crate::triangle::Triangle;
+use crate::triangle::{plane_t, Triangle};
 
 impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
     /// Vertex `p` relative to each lane's origin, sheared so the lane's
@@ -41,9 +41,11 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
 
     /// Tests `tri` against the lanes in `live` over each lane's
     /// `[tmin, tmax]`; `None` when it hits none of them. `k` is
-    /// [`LaneRays::k_uniform`].
+    /// [`LaneRays::k_uniform`]. `ANY`: only the hit mask is wanted (the
+    /// any-hit query), so lanes clearly inside their interval skip the
+    /// `f64` `t` and their `t` is the estimate.
     #[inline(always)]
-    pub(crate) fn intersect(
+    pub(crate) fn intersect<const ANY: bool>(
         &self,
         k: Option<[Axis; 3]>,
         tri: &Triangle,
@@ -51,6 +53,10 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
         tmax: V,
     ) -> Option<LaneHits<V>> {
         let [a, b, c] = tri.v.each_ref().map(|p| self.shear_vertex(k, p));
-        watertight(a, b, c, self.shear[2], live, self.tmin, tmax)
+        let exact_t = |l: usize| {
+            let at = |v: &V| v.lane(l);
+            plane_t(&self.org.each_ref().map(at), &self.dir.each_ref().map(at), tri)
+        };
+        watertight::<V, N, ANY>(a, b, c, self.shear[2], live, self.tmin, tmax, exact_t)
     }
 }

@@ -33,6 +33,8 @@ pub(crate) struct LaneRays<V, const N: usize> {
     pub(crate) coherent: bool,
     /// Origin per axis.
     pub(crate) org: [V; 3],
+    /// Direction per axis (for the `f64` `t`).
+    pub(crate) dir: [V; 3],
     /// `1/dir` per axis.
     pub(crate) inv: [V; 3],
     /// The (coherent) lanes' above-first bits, x in bit 0, y in 1, z in
@@ -201,6 +203,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
             active,
             coherent: false,
             org: c.org,
+            dir: c.dir,
             inv,
             above_first_nibbles: 0,
             lo: t0 - slack,
@@ -228,6 +231,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
     fn lane_by_lane(ray: impl Fn(usize) -> Option<Ray>, bounds: &Bounds) -> Self {
         let mut active = 0u32;
         let mut org = [[0.0f32; N]; 3];
+        let mut dir = [[0.0f32; N]; 3];
         let mut inv = [[0.0f32; N]; 3];
         let mut above_bits = [0u32; 3];
         // Inactive lanes keep an empty interval [1, 0].
@@ -249,6 +253,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
             active |= 1 << l;
             for a in 0..3 {
                 org[a][l] = cr.org[a];
+                dir[a][l] = sr.dir[a];
                 inv[a][l] = cr.inv[a];
                 above_bits[a] |= cr.above_first[a] << l;
                 org_k[a][l] = sr.org[sr.k[a]];
@@ -265,6 +270,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
             active,
             coherent: false,
             org: org.map(V::from_array),
+            dir: dir.map(V::from_array),
             inv: inv.map(V::from_array),
             above_first_nibbles: 0,
             lo: t0 - slack,
@@ -343,6 +349,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
         Single {
             sr: ShearedRay {
                 org,
+                dir: self.dir.each_ref().map(at),
                 k: self.k(l),
                 s: self.shear.each_ref().map(at),
             },

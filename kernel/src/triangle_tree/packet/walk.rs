@@ -158,7 +158,10 @@ impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for ClosestLanes<'_, 'a, V, N
             let Some(tri) = triangles.get(p as usize) else {
                 continue;
             };
-            let Some(h) = lr.intersect(k, tri, lanes, self.t) else {
+            // Lanes whose best triangle this is would get the same answer
+            // again, which cannot win: left out (no `f64` `t`).
+            let again = self.prim.eq_mask(V::splat(f32::from_bits(p))).bits();
+            let Some(h) = lr.intersect::<false>(k, tri, lanes & !again, self.t) else {
                 continue;
             };
             // `Closest::keep` in lanes: the hit lies in [tmin, best t], so
@@ -214,7 +217,7 @@ impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for AnyLanes<'_, 'a, V, N> {
                 break;
             }
             let tri = self.tree.triangles.get(p as usize);
-            if let Some(h) = tri.and_then(|t| self.lr.intersect(k, t, open, self.lr.tmax)) {
+            if let Some(h) = tri.and_then(|t| self.lr.intersect::<true>(k, t, open, self.lr.tmax)) {
                 self.occluded |= h.hit;
                 open &= !h.hit;
             }

@@ -7,77 +7,18 @@
 
 mod common;
 
-use common::{assert_matches_brute, blob};
+use common::{assert_matches_brute, blob, cross64, len64, line_hit, sub64, t_bound};
 use kdray::kernel::{
     any_hit_brute, closest_hit_brute, Hit, Ray, SurfacePoint, Triangle, MAX_COORD,
 };
-use kdray::tools::build::{build, BuildError, BuildParams, BuilderKind};
+use kdray::tools::builders::{build, BuildError, BuildParams, BuilderKind};
 use proptest::prelude::*;
 
-/// The `f64` reference: Möller-Trumbore in `f64` on the `f32` inputs (the
-/// oracle's test), `Some((t, b1, b2))` for a hit of the line (any `t`).
+/// The reference's hit of the triangle itself (barycentrics all >= 0).
 fn reference(tri: &Triangle, ray: &Ray) -> Option<(f64, f64, f64)> {
-    let f = |p: [f32; 3]| p.map(f64::from);
-    let [a, b, c] = tri.v.map(f);
-    let (o, d) = (f(ray.origin), f(ray.dir));
-    let sub = |x: [f64; 3], y: [f64; 3]| [x[0] - y[0], x[1] - y[1], x[2] - y[2]];
-    let cross = |x: [f64; 3], y: [f64; 3]| {
-        [
-            x[1] * y[2] - x[2] * y[1],
-            x[2] * y[0] - x[0] * y[2],
-            x[0] * y[1] - x[1] * y[0],
-        ]
-    };
-    let dot = |x: [f64; 3], y: [f64; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
-    let (e1, e2) = (sub(b, a), sub(c, a));
-    let p = cross(d, e2);
-    let det = dot(e1, p);
-    if det == 0.0 {
-        return None;
-    }
-    let s = sub(o, a);
-    let u = dot(s, p) / det;
-    let q = cross(s, e1);
-    let v = dot(d, q) / det;
-    let t = dot(e2, q) / det;
-    (u >= 0.0 && v >= 0.0 && u + v <= 1.0).then_some((t, u, v))
-}
-
-fn sub64(x: [f64; 3], y: [f64; 3]) -> [f64; 3] {
-    [x[0] - y[0], x[1] - y[1], x[2] - y[2]]
-}
-
-fn cross64(x: [f64; 3], y: [f64; 3]) -> [f64; 3] {
-    [
-        x[1] * y[2] - x[2] * y[1],
-        x[2] * y[0] - x[0] * y[2],
-        x[0] * y[1] - x[1] * y[0],
-    ]
-}
-
-fn len64(x: [f64; 3]) -> f64 {
-    (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt()
-}
-
-/// The documented bound on `|t - t_exact|` (`ShearedRay::intersect`):
-/// `2^-24 |t| + 2^-47 |e1|₁ |e2|₁ (|v0 - o|₁ + |t| |d|₁) / |n·d|`, doubled
-/// for the reference's own rounding.
-fn t_bound(tri: &Triangle, ray: &Ray, t: f64) -> f64 {
-    let f = |p: [f32; 3]| p.map(f64::from);
-    let [a, b, c] = tri.v.map(f);
-    let (o, d) = (f(ray.origin), f(ray.dir));
-    let l1 = |x: [f64; 3]| x[0].abs() + x[1].abs() + x[2].abs();
-    let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-    let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-    let n = [
-        e1[1] * e2[2] - e1[2] * e2[1],
-        e1[2] * e2[0] - e1[0] * e2[2],
-        e1[0] * e2[1] - e1[1] * e2[0],
-    ];
-    let nd = (n[0] * d[0] + n[1] * d[1] + n[2] * d[2]).abs();
-    let ao = [a[0] - o[0], a[1] - o[1], a[2] - o[2]];
-    let shape = l1(e1) * l1(e2) * (l1(ao) + t.abs() * l1(d)) / nd;
-    2.0 * (t.abs() * 2f64.powi(-24) + shape * 2f64.powi(-47))
+    line_hit(tri, ray)
+        .filter(|(_, b)| b.iter().all(|&x| x >= 0.0))
+        .map(|(t, b)| (t, b[1], b[2]))
 }
 
 /// A line ray: every `t`, so the reference's and kdray's `t` compare

@@ -5,9 +5,8 @@
 
 mod common;
 
-use common::{assert_matches_brute, blob, shared_meshes};
-use kdray::kernel::Bounds;
-use kdray::kernel::Triangle;
+use common::{assert_matches_brute, assert_matches_f64, blob, shared_meshes};
+use kdray::kernel::{Bounds, Ray, Triangle};
 use kdray::tools::builders::BuilderKind;
 use kdray::tools::camera::{random_rays, Camera};
 use kdray::tools::{mesh, scene};
@@ -24,12 +23,88 @@ fn check_scene(name: &str, tris: &[Triangle], focus: &Bounds) {
     rays.extend(random_rays(&bounds(tris), side as usize * 20, 5));
     eprintln!("{name}: {} triangles, {} rays", tris.len(), rays.len());
     assert_matches_brute(tris, &rays);
+    check_against_f64(name, tris, focus);
+}
+
+/// Shadow rays as `gen_rays.py shadow` makes them: from points on the
+/// surface (triangles picked evenly) towards a light above the scene, over
+/// `[1e-4 diag / |L - o|, 0.999]`.
+fn shadow_rays(tris: &[Triangle], n: usize) -> Vec<Ray> {
+    let b = bounds(tris);
+    let diag: f32 = (0..3).map(|a| (b.max[a] - b.min[a]).powi(2)).sum::<f32>().sqrt();
+    let light: [f32; 3] = std::array::from_fn(|a| {
+        0.5 * (b.min[a] + b.max[a]) + 2.0 * diag * [0.3, 1.0, 0.2][a]
+    });
+    (0..n)
+        .map(|i| {
+            let tri = &tris[i * tris.len() / n];
+            let (u, v) = (0.25 + 0.5 * ((i * 7) % 13) as f32 / 13.0, 0.2);
+            let (u, v) = (u * (1.0 - v), v);
+            let o: [f32; 3] = std::array::from_fn(|a| {
+                tri.v[0][a] + u * (tri.v[1][a] - tri.v[0][a]) + v * (tri.v[2][a] - tri.v[0][a])
+            });
+            let dir: [f32; 3] = std::array::from_fn(|a| light[a] - o[a]);
+            let len = dir.iter().map(|c| c * c).sum::<f32>().sqrt();
+            Ray {
+                origin: o,
+                tmin: 1e-4 * diag / len,
+                dir,
+                tmax: 0.999,
+            }
+        })
+        .collect()
+}
+
+/// A sample of every ray set (camera, random, shadow) against the `f64`
+/// reference over all triangles (`common::assert_matches_f64`).
+fn check_against_f64(name: &str, tris: &[Triangle], focus: &Bounds) {
+    let n = if tris.len() > 100_000 { 100 } else { 300 };
+    let side = (n as f32).sqrt() as u32;
+    let b = blob(tris, BuilderKind::default());
+    let tree = b.tree().unwrap();
+    let sets = [
+        ("camera", Camera::framing(focus).rays(side, side)),
+        ("random", random_rays(&bounds(tris), n, 16)),
+        ("shadow", shadow_rays(tris, n)),
+    ];
+    for (set, rays) in sets {
+        let hits = assert_matches_f64(&format!("{name} {set}"), tris, &tree, &rays, 1e-5);
+        // The camera sees the scene; random rays through its box hit it.
+        assert!(set == "shadow" || hits > 0, "{name} {set}: no ray hit");
+    }
+}
+
+/// A plane of triangles (z = 0) with rays from points of the plane: the
+/// case where the interpolated t missed a quarter of the rays.
+fn planar_scene() -> (Vec<Triangle>, Vec<Ray>) {
+    let mut tris = Vec::new();
+    for j in 0..24 {
+        for i in 0..24 {
+            let (x, y) = (i as f32 * 0.75 - 9.0, j as f32 * 0.75 - 9.0);
+            tris.push(Triangle {
+                v: [[x, y, 0.0], [x + 0.75, y, 0.0], [x + 0.75, y + 0.75, 0.0]],
+            });
+            tris.push(Triangle {
+                v: [[x, y, 0.0], [x + 0.75, y + 0.75, 0.0], [x, y + 0.75, 0.0]],
+            });
+        }
+    }
+    let mut rays = random_rays(&bounds(&tris), 600, 3);
+    for r in &mut rays {
+        r.origin[2] = 0.0;
+    }
+    (tris, rays)
 }
 
 #[test]
 fn generated_scenes_match_brute_force() {
     let s = scene::teapot_in_stadium();
     check_scene("teapot-in-stadium", &s.triangles, &s.focus);
+    let (tris, rays) = planar_scene();
+    assert_matches_brute(&tris, &rays);
+    let b = blob(&tris, BuilderKind::default());
+    let hits = assert_matches_f64("planar", &tris, &b.tree().unwrap(), &rays, 1e-5);
+    assert_eq!(hits, rays.len(), "every ray starts on the plane");
 }
 
 #[test]

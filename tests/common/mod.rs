@@ -45,3 +45,110 @@ pub(crate) fn assert_matches_brute(tris: &[Triangle], rays: &[Ray]) {
         }
     }
 }
+
+/// The `f64` reference for one triangle: Möller-Trumbore in `f64` on the
+/// `f32` inputs (the oracle's test, `../shared/anchors/embree/brute_trace.c`),
+/// for the whole line: `Some((t, [b0, b1, b2]))` where it meets the plane
+/// (barycentrics of any sign), `None` for a line parallel to it.
+pub(crate) fn line_hit(tri: &Triangle, ray: &Ray) -> Option<(f64, [f64; 3])> {
+    let f = |p: [f32; 3]| p.map(f64::from);
+    let [a, b, c] = tri.v.map(f);
+    let (o, d) = (f(ray.origin), f(ray.dir));
+    let (e1, e2) = (sub64(b, a), sub64(c, a));
+    let p = cross64(d, e2);
+    let det = dot64(e1, p);
+    if det == 0.0 {
+        return None;
+    }
+    let s = sub64(o, a);
+    let u = dot64(s, p) / det;
+    let q = cross64(s, e1);
+    let v = dot64(d, q) / det;
+    let t = dot64(e2, q) / det;
+    Some((t, [1.0 - u - v, u, v]))
+}
+
+pub(crate) fn sub64(x: [f64; 3], y: [f64; 3]) -> [f64; 3] {
+    [x[0] - y[0], x[1] - y[1], x[2] - y[2]]
+}
+
+pub(crate) fn cross64(x: [f64; 3], y: [f64; 3]) -> [f64; 3] {
+    [
+        x[1] * y[2] - x[2] * y[1],
+        x[2] * y[0] - x[0] * y[2],
+        x[0] * y[1] - x[1] * y[0],
+    ]
+}
+
+pub(crate) fn dot64(x: [f64; 3], y: [f64; 3]) -> f64 {
+    x[0] * y[0] + x[1] * y[1] + x[2] * y[2]
+}
+
+pub(crate) fn len64(x: [f64; 3]) -> f64 {
+    dot64(x, x).sqrt()
+}
+
+/// The documented bound on `|t - t_exact|` (the kernel's triangle module):
+/// `2^-24 |t| + 2^-47 |e1|₁ |e2|₁ (|v0 - o|₁ + |t| |d|₁) / |n·d|`, doubled
+/// for the reference's own rounding.
+pub(crate) fn t_bound(tri: &Triangle, ray: &Ray, t: f64) -> f64 {
+    let f = |p: [f32; 3]| p.map(f64::from);
+    let [a, b, c] = tri.v.map(f);
+    let (o, d) = (f(ray.origin), f(ray.dir));
+    let l1 = |x: [f64; 3]| x[0].abs() + x[1].abs() + x[2].abs();
+    let (e1, e2) = (sub64(b, a), sub64(c, a));
+    let nd = dot64(cross64(e1, e2), d).abs();
+    let shape = l1(e1) * l1(e2) * (l1(sub64(a, o)) + t.abs() * l1(d)) / nd;
+    2.0 * (t.abs() * 2f64.powi(-24) + shape * 2f64.powi(-47))
+}
+
+/// Holds kdray's closest hits against the `f64` reference over all
+/// triangles, failing only where the reference decides against kdray:
+/// kdray's triangle missed by the reference by more than `margin` in
+/// barycentrics, kdray's `t` beyond the bound of the reference's, or a
+/// triangle the reference hits with every barycentric above `margin`
+/// nearer than kdray's hit (or when kdray misses). Returns how many rays
+/// hit, so a caller can check the rays reached the geometry.
+pub(crate) fn assert_matches_f64(
+    name: &str,
+    tris: &[Triangle],
+    tree: &kdray::kernel::TriangleTree<'_>,
+    rays: &[Ray],
+    margin: f64,
+) -> usize {
+    let mut hits = 0;
+    for (i, r) in rays.iter().enumerate() {
+        let kd = tree.closest_hit(r);
+        let kd_t = if kd.is_hit() {
+            hits += 1;
+            let tri = &tris[kd.prim as usize];
+            let (t, b) = line_hit(tri, r)
+                .unwrap_or_else(|| panic!("{name}: ray {i} {r:?}: {kd:?} hits a triangle the reference finds parallel"));
+            let bound = t_bound(tri, r, t);
+            assert!(
+                b.iter().all(|&x| x >= -margin),
+                "{name}: ray {i} {r:?}: kdray hits triangle {} the reference misses (barycentrics {b:?})",
+                kd.prim
+            );
+            assert!(
+                (f64::from(kd.t) - t).abs() <= bound,
+                "{name}: ray {i} {r:?}: kdray t {} vs reference {t} (bound {bound:e})",
+                kd.t
+            );
+            f64::from(kd.t) - bound
+        } else {
+            f64::INFINITY
+        };
+        for (j, tri) in tris.iter().enumerate() {
+            let Some((t, b)) = line_hit(tri, r).filter(|_| j as u32 != kd.prim) else {
+                continue;
+            };
+            let robust = b.iter().all(|&x| x > margin);
+            let in_range = t >= f64::from(r.tmin) && t <= f64::from(r.tmax);
+            if robust && in_range && t + t_bound(tri, r, t) < kd_t {
+                panic!("{name}: ray {i} {r:?}: the reference hits triangle {j} at t = {t} (barycentrics {b:?}), kdray {kd:?}");
+            }
+        }
+    }
+    hits
+}

@@ -67,7 +67,10 @@ fn check_t(tri: &Triangle, ray: &Ray) -> Result<(), TestCaseError> {
             got.t
         );
     } else if inside && in_range && bound < 1e-3 * t.abs().max(1e-30) && t.abs() < 1e30 {
-        prop_assert!(false, "missed a well-conditioned hit at t = {t}: {tri:?} {ray:?}");
+        prop_assert!(
+            false,
+            "missed a well-conditioned hit at t = {t}: {tri:?} {ray:?}"
+        );
     }
     Ok(())
 }
@@ -260,9 +263,7 @@ fn icosahedron(c: [f32; 3], r: f32) -> Vec<Triangle> {
         [9, 8, 1],
     ];
     f.iter()
-        .map(|t: &[usize; 3]| Triangle {
-            v: t.map(|i| v[i]),
-        })
+        .map(|t: &[usize; 3]| Triangle { v: t.map(|i| v[i]) })
         .collect()
 }
 
@@ -301,7 +302,14 @@ fn cuboid(lo: [f32; 3], hi: [f32; 3]) -> Vec<Triangle> {
 /// Closed convex meshes at many scales and distances from the origin.
 fn closed_meshes() -> Vec<Vec<Triangle>> {
     let mut out = Vec::new();
-    for (scale, far) in [(1.0f32, 0.0f32), (1e-6, 0.0), (1e6, 0.0), (1.0, 1e6), (1e-3, 1e3), (1e12, 1e13)] {
+    for (scale, far) in [
+        (1.0f32, 0.0f32),
+        (1e-6, 0.0),
+        (1e6, 0.0),
+        (1.0, 1e6),
+        (1e-3, 1e3),
+        (1e12, 1e13),
+    ] {
         let c = [far, -0.5 * far, 0.25 * far];
         out.push(icosahedron(c, scale));
         let lo = c.map(|x| x - 0.7 * scale);
@@ -369,10 +377,15 @@ fn spawned_rays_never_hit_the_surface_they_leave() {
                 // miss, or hit that neighbour at t = 0: only the triangle
                 // left is ruled out.
                 if outward {
-                    assert!(!again.is_hit(), "spawned outward from {h:?} on {tri:?}: {again:?}, ray {r:?}");
+                    assert!(
+                        !again.is_hit(),
+                        "spawned outward from {h:?} on {tri:?}: {again:?}, ray {r:?}"
+                    );
                 } else {
-                    assert!(again.prim != h.prim,
-                        "spawned inward from {h:?} on {tri:?}: {again:?}, ray {r:?}");
+                    assert!(
+                        again.prim != h.prim,
+                        "spawned inward from {h:?} on {tri:?}: {again:?}, ray {r:?}"
+                    );
                 }
                 // A ray along the surface (in its plane) leaves it too.
                 for (a, b) in w.iter_mut().zip(n) {
@@ -380,12 +393,18 @@ fn spawned_rays_never_hit_the_surface_they_leave() {
                 }
                 let r = sp.spawn(w, f32::INFINITY);
                 let again = tree.closest_hit(&r);
-                assert!(!again.is_hit() || again.prim != h.prim, "along the surface: {again:?}");
+                assert!(
+                    !again.is_hit() || again.prim != h.prim,
+                    "along the surface: {again:?}"
+                );
                 // To a light outside: never its own triangle.
                 let light = std::array::from_fn(|i| centre[i] + 5.0 * size * n[i]);
                 let r = sp.spawn_to(light);
                 let again = tree.closest_hit(&r);
-                assert!(!again.is_hit() || again.prim != h.prim, "to the light: {again:?}");
+                assert!(
+                    !again.is_hit() || again.prim != h.prim,
+                    "to the light: {again:?}"
+                );
                 spawned += 3;
             }
         }
@@ -486,7 +505,11 @@ fn builders_refuse_coordinates_beyond_the_range() {
     }
     // At the limit itself: built.
     let edge = [Triangle {
-        v: [[MAX_COORD, 0.0, 0.0], [0.0, -MAX_COORD, 0.0], [0.0, 0.0, 1.0]],
+        v: [
+            [MAX_COORD, 0.0, 0.0],
+            [0.0, -MAX_COORD, 0.0],
+            [0.0, 0.0, 1.0],
+        ],
     }];
     assert!(build(&edge, BuilderKind::default(), &BuildParams::default()).is_ok());
 }
@@ -497,10 +520,18 @@ fn stadium_floor_diagonal_gets_the_f64_t() {
     // 1.5 units from the origin: the interpolated t was 1.4e-5 off.
     let floor = [
         Triangle {
-            v: [[-500.0, 0.0, -500.0], [500.0, 0.0, -500.0], [500.0, 0.0, 500.0]],
+            v: [
+                [-500.0, 0.0, -500.0],
+                [500.0, 0.0, -500.0],
+                [500.0, 0.0, 500.0],
+            ],
         },
         Triangle {
-            v: [[-500.0, 0.0, -500.0], [500.0, 0.0, 500.0], [-500.0, 0.0, 500.0]],
+            v: [
+                [-500.0, 0.0, -500.0],
+                [500.0, 0.0, 500.0],
+                [-500.0, 0.0, 500.0],
+            ],
         },
     ];
     let mut rng = Rng(7);

@@ -31,10 +31,12 @@ fn check_scene(name: &str, tris: &[Triangle], focus: &Bounds) {
 /// `[1e-4 diag / |L - o|, 0.999]`.
 fn shadow_rays(tris: &[Triangle], n: usize) -> Vec<Ray> {
     let b = bounds(tris);
-    let diag: f32 = (0..3).map(|a| (b.max[a] - b.min[a]).powi(2)).sum::<f32>().sqrt();
-    let light: [f32; 3] = std::array::from_fn(|a| {
-        0.5 * (b.min[a] + b.max[a]) + 2.0 * diag * [0.3, 1.0, 0.2][a]
-    });
+    let diag: f32 = (0..3)
+        .map(|a| (b.max[a] - b.min[a]).powi(2))
+        .sum::<f32>()
+        .sqrt();
+    let light: [f32; 3] =
+        std::array::from_fn(|a| 0.5 * (b.min[a] + b.max[a]) + 2.0 * diag * [0.3, 1.0, 0.2][a]);
     (0..n)
         .map(|i| {
             let tri = &tris[i * tris.len() / n];

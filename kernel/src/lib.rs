@@ -66,6 +66,24 @@
 //!   exactly as [`knn_brute`] (equal distance: lower index first).
 //! - **Invalid rays** (non-finite origin, NaN/inf/zero direction, NaN or
 //!   inverted `[tmin, tmax]`) miss.
+//! - **Accurate `t`**: the watertight edge test decides hit or miss (no
+//!   ray slips through a shared edge or vertex of a closed mesh); `t` is
+//!   the plane's `n·(v0 - o) / n·d` computed in `f64` and rounded once, so
+//!   `|t - t_exact| <= 2^-24 |t| + 2^-47 |e1|₁ |e2|₁ (|v0 - o|₁ + |t| |d|₁)
+//!   / |n·d|` (`e1, e2` the triangle's edges from `v0`, `n = e1 × e2`): an
+//!   ulp or two wherever the hit is well conditioned. A ray whose origin
+//!   lies on a triangle's plane (within that bound) gets `t = 0` for it, so
+//!   a ray starting on a triangle with `tmin <= 0` hits it at `t = 0`.
+//! - **Coordinate range**: vertices and ray origins within `±`[`MAX_COORD`]
+//!   (2^60). The builders refuse triangles outside it; a ray whose origin
+//!   lies outside gets the same answer from tree, packets and brute force
+//!   and never a panic, but may miss triangles whose edge functions
+//!   overflow `f32`. Triangles whose projected edge products underflow
+//!   `f32` (edges below about 2^-63 units) are missed.
+//! - **Secondary rays need no epsilon**: [`SurfacePoint`] gives a hit's
+//!   point with a conservative error bound and spawns rays from it, offset
+//!   along the geometric normal past that bound (PBRT-v3's
+//!   `OffsetRayOrigin`), that never hit the triangle they leave.
 #![no_std]
 #![deny(missing_docs)]
 #![warn(clippy::std_instead_of_core, clippy::alloc_instead_of_core)]

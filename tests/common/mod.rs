@@ -122,8 +122,9 @@ pub(crate) fn assert_matches_f64(
         let kd_t = if kd.is_hit() {
             hits += 1;
             let tri = &tris[kd.prim as usize];
-            let (t, b) = line_hit(tri, r)
-                .unwrap_or_else(|| panic!("{name}: ray {i} {r:?}: {kd:?} hits a triangle the reference finds parallel"));
+            let (t, b) = line_hit(tri, r).unwrap_or_else(|| {
+                panic!("{name}: ray {i} {r:?}: {kd:?} hits a triangle the reference finds parallel")
+            });
             let bound = t_bound(tri, r, t);
             assert!(
                 b.iter().all(|&x| x >= -margin),

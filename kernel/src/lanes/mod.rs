@@ -40,7 +40,9 @@ use wide::{f32x16, f32x4, f32x8, i32x16, i32x4, i32x8};
 
 /// A vector of `N` `f32` lanes.
 /// `splat` and `abs` come from [`Real`].
-pub(crate) trait Lanes<const N: usize>: Real + BitAnd<Output = Self> + BitOr<Output = Self> {
+pub(crate) trait Lanes<const N: usize>:
+    Real + BitAnd<Output = Self> + BitOr<Output = Self>
+{
     fn from_array(a: [f32; N]) -> Self;
     fn to_array(self) -> [f32; N];
     /// Lane `l`, read in place (NaN for `l >= N`).

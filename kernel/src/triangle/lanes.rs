@@ -73,7 +73,8 @@ pub(crate) fn watertight<V: Lanes<N>, const N: usize, const ANY: bool>(
     if hit == 0 {
         return None;
     }
-    let (t_est, slack, shape) = t_window([ax, ay, bx, by, cx, cy], [az, bz, cz], [u, v, w], det, sz);
+    let (t_est, slack, shape) =
+        t_window([ax, ay, bx, by, cx, cy], [az, bz, cz], [u, v, w], det, sz);
     let (lo, hi) = (t_est - slack, t_est + slack);
     // Windows clearly outside [tmin, tmax] (a NaN window rejects nothing).
     hit &= !(hi.lt_mask(tmin) | lo.gt_mask(tmax)).bits();

@@ -66,7 +66,6 @@ use bytemuck::{Pod, Zeroable};
 /// below `96 · MAX_COORD² < f32::MAX`: no product overflows.
 pub const MAX_COORD: f32 = 1_152_921_504_606_846_976.0;
 
-
 /// A triangle: three vertices. `repr(C)`, Pod, 36 bytes; the blob stores
 /// triangles in this layout, in mesh order.
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
@@ -119,7 +118,6 @@ impl Triangle {
         ]
     }
 }
-
 
 /// A ray prepared for the watertight test: its origin, the axis permutation
 /// that makes z the dominant direction axis, and the shear constants.
@@ -288,7 +286,15 @@ impl ShearedRay {
             return None;
         }
         let window = t_window([ax, ay, bx, by, cx, cy], [az, bz, cz], [u, v, w], det, sz);
-        Some((TriangleHit { t: window.0, v, w, det }, window))
+        Some((
+            TriangleHit {
+                t: window.0,
+                v,
+                w,
+                det,
+            },
+            window,
+        ))
     }
 }
 
@@ -316,19 +322,19 @@ const WINDOW_HEIGHT: f32 = 1.0 / 262_144.0;
 /// `f64` `t`'s own. Overflow (huge coordinates, near-parallel rays) makes
 /// the window infinite or NaN: it then rejects nothing.
 #[inline(always)]
-pub(crate) fn t_window<S: Real>(
-    xy: [S; 6],
-    z: [S; 3],
-    uvw: [S; 3],
-    det: S,
-    sz: S,
-) -> (S, S, S) {
+pub(crate) fn t_window<S: Real>(xy: [S; 6], z: [S; 3], uvw: [S; 3], det: S, sz: S) -> (S, S, S) {
     let [ax, ay, bx, by, cx, cy] = xy;
     let [az, bz, cz] = z;
     let [u, v, w] = uvw;
     let rdet = S::splat(1.0) / det;
     let t_est = ((u * rdet) * az + (v * rdet) * bz + (w * rdet) * cz) * sz;
-    let m = ax.abs().max(ay.abs()).max(bx.abs()).max(by.abs()).max(cx.abs()).max(cy.abs());
+    let m = ax
+        .abs()
+        .max(ay.abs())
+        .max(bx.abs())
+        .max(by.abs())
+        .max(cx.abs())
+        .max(cy.abs());
     let (zmax, zmin) = (az.max(bz).max(cz), az.min(bz).min(cz));
     let zabs = zmax.max(S::splat(0.0) - zmin);
     let asz = sz.abs();
@@ -375,8 +381,9 @@ pub(crate) fn plane_t(org: &[f32; 3], dir: &[f32; 3], tri: &Triangle) -> f32 {
     let den = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
     let l1 = |x: [f64; 3]| x[0].abs() + x[1].abs() + x[2].abs();
     let noise = l1(e1) * l1(e2) * PLANE_NOISE;
-    // `!(>)`: a NaN bound is no plane either.
-    if !(den.abs() > noise * l1(d)) {
+    // A NaN bound is no plane either.
+    let plane = den.abs() > noise * l1(d);
+    if !plane {
         return f32::NAN;
     }
     if num.abs() <= noise * l1(a) {

@@ -65,7 +65,11 @@ impl SurfacePoint {
     pub fn offset_origin(&self, dir: [f32; 3]) -> [f32; 3] {
         let d: f32 = (0..3).map(|i| self.normal[i].abs() * self.err[i]).sum();
         let facing: f32 = (0..3).map(|i| self.normal[i] * dir[i]).sum();
-        let n = if facing < 0.0 { self.normal.map(|c| -c) } else { self.normal };
+        let n = if facing < 0.0 {
+            self.normal.map(|c| -c)
+        } else {
+            self.normal
+        };
         core::array::from_fn(|i| {
             let o = self.p[i] + d * n[i];
             if n[i] > 0.0 {

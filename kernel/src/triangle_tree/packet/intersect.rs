@@ -55,7 +55,11 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
         let [a, b, c] = tri.v.each_ref().map(|p| self.shear_vertex(k, p));
         let exact_t = |l: usize| {
             let at = |v: &V| v.lane(l);
-            plane_t(&self.org.each_ref().map(at), &self.dir.each_ref().map(at), tri)
+            plane_t(
+                &self.org.each_ref().map(at),
+                &self.dir.each_ref().map(at),
+                tri,
+            )
         };
         watertight::<V, N, ANY>(a, b, c, self.shear[2], live, self.tmin, tmax, exact_t)
     }

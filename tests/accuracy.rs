@@ -333,18 +333,25 @@ impl Rng {
     }
 }
 
+/// The bounding box of `mesh`'s vertices.
+fn mesh_box(mesh: &[Triangle]) -> ([f32; 3], [f32; 3]) {
+    let pts = || mesh.iter().flat_map(|t| t.v);
+    let lo = pts().fold([f32::MAX; 3], |m, p| {
+        std::array::from_fn(|i| m[i].min(p[i]))
+    });
+    let hi = pts().fold([f32::MIN; 3], |m, p| {
+        std::array::from_fn(|i| m[i].max(p[i]))
+    });
+    (lo, hi)
+}
+
 #[test]
 fn spawned_rays_never_hit_the_surface_they_leave() {
     let mut rng = Rng(0x1234_5678_9abc_def1);
     for mesh in closed_meshes() {
         let tree_blob = blob(&mesh, BuilderKind::default());
         let tree = tree_blob.tree().unwrap();
-        let lo = mesh.iter().flat_map(|t| t.v).fold([f32::MAX; 3], |m, p| {
-            std::array::from_fn(|i| m[i].min(p[i]))
-        });
-        let hi = mesh.iter().flat_map(|t| t.v).fold([f32::MIN; 3], |m, p| {
-            std::array::from_fn(|i| m[i].max(p[i]))
-        });
+        let (lo, hi) = mesh_box(&mesh);
         let centre: [f32; 3] = std::array::from_fn(|i| 0.5 * (lo[i] + hi[i]));
         let size = (0..3).map(|i| hi[i] - lo[i]).fold(0.0, f32::max);
         let mut spawned = 0;
@@ -418,12 +425,7 @@ fn closed_meshes_are_watertight_from_inside_through_every_vertex_and_edge() {
     for mesh in closed_meshes() {
         let tree_blob = blob(&mesh, BuilderKind::default());
         let tree = tree_blob.tree().unwrap();
-        let lo = mesh.iter().flat_map(|t| t.v).fold([f32::MAX; 3], |m, p| {
-            std::array::from_fn(|i| m[i].min(p[i]))
-        });
-        let hi = mesh.iter().flat_map(|t| t.v).fold([f32::MIN; 3], |m, p| {
-            std::array::from_fn(|i| m[i].max(p[i]))
-        });
+        let (lo, hi) = mesh_box(&mesh);
         let mut rays = Vec::new();
         for _ in 0..6 {
             let inside: [f32; 3] = std::array::from_fn(|i| {

@@ -3,7 +3,7 @@
 use super::json::JsonObject;
 use super::progress::with_bar;
 use super::report::{print_stats, stats_json};
-use super::CmdResult;
+use super::{check_threads, CmdResult};
 use kdray_tools::blob::write_triangle_tree;
 use kdray_tools::builders::{build_monitored, BuildMonitor, BuildParams, BuilderKind};
 use kdray_tools::stats::{tree_stats, CostModel};
@@ -43,13 +43,10 @@ pub(crate) struct Args {
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
-    let t = Instant::now();
-    let tris = mesh::load(&a.mesh)?;
-    let load_ms = t.elapsed().as_secs_f64() * 1e3;
+    // Every argument is checked before the mesh is read and built.
+    io::check_output(&a.output)?;
     let kind = BuilderKind::parse(&a.builder)?;
-    if a.threads == Some(0) {
-        return Err("--threads must be at least 1".into());
-    }
+    check_threads(a.threads)?;
     let d = BuildParams::default();
     let params = BuildParams {
         threads: a.threads,
@@ -74,6 +71,9 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         )
         .into());
     }
+    let t = Instant::now();
+    let tris = mesh::load(&a.mesh)?;
+    let load_ms = t.elapsed().as_secs_f64() * 1e3;
     let monitor = BuildMonitor::new();
     let t = Instant::now();
     let built = with_bar(&monitor, || build_monitored(&tris, kind, &params, &monitor))

@@ -19,6 +19,9 @@ mod knn;
 mod progress;
 mod render;
 mod report;
+#[cfg(unix)]
+#[allow(unsafe_code)] // three C library calls, each with its SAFETY argument
+mod signals;
 mod trace;
 
 use clap::{Parser, Subcommand};
@@ -58,6 +61,8 @@ type CmdResult = Result<(), Box<dyn std::error::Error>>;
 
 pub(crate) fn main() -> ExitCode {
     let cli = Cli::parse();
+    #[cfg(unix)]
+    signals::install();
     let result = match cli.command {
         Some(Command::Build(a)) => build_tree::run(&a),
         Some(Command::Info(a)) => info::run(&a),
@@ -78,11 +83,56 @@ pub(crate) fn main() -> ExitCode {
     }
 }
 
+/// The most worker threads a command starts: past the cores, threads only
+/// add overhead, and each reserves a stack (100,000 of them exhaust the
+/// address space).
+const MAX_THREADS: usize = 1024;
+
+/// Refuses `--threads 0` and counts past [`MAX_THREADS`].
+fn check_threads(threads: Option<usize>) -> Result<(), String> {
+    match threads {
+        Some(0) => Err("--threads must be at least 1".into()),
+        Some(n) if n > MAX_THREADS => Err(format!(
+            "--threads {n} is more than {MAX_THREADS} (this machine has {} cores)",
+            std::thread::available_parallelism().map_or(1, |n| n.get())
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// A rayon pool of `threads` workers (all cores when `None`).
 fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, Box<dyn std::error::Error>> {
+    check_threads(threads)?;
     let n = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    if n == 0 {
-        return Err("--threads must be at least 1".into());
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build()
+        .map_err(|e| format!("cannot start {}: {e}", plural(n, "thread")).into())
+}
+
+/// `"1 thread"`, `"2 threads"`.
+fn plural(n: usize, what: &str) -> String {
+    if n == 1 {
+        format!("1 {what}")
+    } else {
+        format!("{n} {what}s")
     }
-    Ok(rayon::ThreadPoolBuilder::new().num_threads(n).build()?)
+}
+
+/// The most pixels (or camera rays) an image may have: 2^28, 16384 x 16384,
+/// so the pixels, costs and rays of a picture stay within a few GB.
+const MAX_PIXELS: u64 = 1 << 28;
+
+/// Refuses a `width` x `height` image of no pixels or more than [`MAX_PIXELS`].
+fn check_image(width: u32, height: u32, names: &str) -> Result<(), String> {
+    let pixels = u64::from(width) * u64::from(height);
+    if pixels == 0 {
+        return Err(format!("{names} must be at least 1"));
+    }
+    if pixels > MAX_PIXELS {
+        return Err(format!(
+            "{names}: {width} x {height} is {pixels} pixels, more than the {MAX_PIXELS} (16384 x 16384) kdray makes"
+        ));
+    }
+    Ok(())
 }

@@ -17,6 +17,7 @@ mod info;
 mod json;
 mod knn;
 mod progress;
+mod rays;
 mod render;
 mod report;
 #[cfg(unix)]
@@ -47,6 +48,9 @@ enum Command {
     BuildPoints(build_points::Args),
     /// Answer the k nearest points of every query in a file.
     Knn(knn::Args),
+    /// Make a ray file: camera rays (row order or packet tiles), random
+    /// rays or shadow rays.
+    Rays(rays::Args),
     /// Render a mesh or tree to PNG: shaded, or a traversal-cost heatmap.
     Render(render::Args),
     /// Build and trace the built-in teapot-in-a-stadium scene (the default).
@@ -69,6 +73,7 @@ pub(crate) fn main() -> ExitCode {
         Some(Command::Trace(a)) => trace::run(&a),
         Some(Command::BuildPoints(a)) => build_points::run(&a),
         Some(Command::Knn(a)) => knn::run(&a),
+        Some(Command::Rays(a)) => rays::run(&a),
         Some(Command::Render(a)) => render::run(&a),
         Some(Command::Demo(a)) => demo::run(&a),
         Some(Command::Bench(a)) => bench::run(&a),
@@ -135,4 +140,31 @@ fn check_image(width: u32, height: u32, names: &str) -> Result<(), String> {
         ));
     }
     Ok(())
+}
+
+/// How the commands that read a mesh read it.
+#[derive(clap::Args, Debug, Default, Clone, Copy)]
+struct MeshArgs {
+    /// Let a glTF's buffer URIs name files outside the glTF's folder
+    /// (absolute paths, `..`); by default they are refused.
+    #[arg(long)]
+    allow_outside_uris: bool,
+}
+
+impl MeshArgs {
+    /// Loads `path`, printing what was skipped (glTF points and lines) as
+    /// warnings on stderr.
+    fn load(
+        self,
+        path: &std::path::Path,
+    ) -> Result<Vec<kdray_kernel::Triangle>, kdray_tools::mesh::MeshError> {
+        let options = kdray_tools::mesh::LoadOptions {
+            allow_outside_uris: self.allow_outside_uris,
+        };
+        let m = kdray_tools::mesh::load_with(path, &options)?;
+        for s in &m.skipped {
+            eprintln!("kdray: warning: {}: {s}", path.display());
+        }
+        Ok(m.triangles)
+    }
 }

@@ -3,13 +3,13 @@
 
 use super::progress::counted_bar;
 use super::trace::parse_width;
-use super::{thread_pool, CmdResult};
+use super::{check_image, plural, thread_pool, CmdResult, MeshArgs};
 use glam::Vec3;
 use kdray_kernel::PacketWidth;
 use kdray_tools::blob::{write_triangle_tree, Blob};
 use kdray_tools::builders::{build, BuildParams, BuilderKind};
 use kdray_tools::camera::Camera;
-use kdray_tools::mesh;
+use kdray_tools::io;
 use kdray_tools::render::{bands, render, render_heatmap, RenderParams, TreeTracer};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -49,9 +49,11 @@ pub(crate) struct Args {
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
+    #[command(flatten)]
+    mesh_args: MeshArgs,
 }
 
-fn parse_vec3(s: &str) -> Result<Vec3, String> {
+pub(super) fn parse_vec3(s: &str) -> Result<Vec3, String> {
     let parts: Vec<f32> = s
         .split(',')
         .map(|p| p.trim().parse::<f32>())
@@ -63,38 +65,61 @@ fn parse_vec3(s: &str) -> Result<Vec3, String> {
     }
 }
 
+/// Refuses a field of view outside (0, 180) degrees.
+pub(super) fn check_fov(fov: Option<f32>) -> Result<(), String> {
+    match fov {
+        Some(f) if !(f > 0.0 && f < 180.0) => {
+            Err(format!("--fov must be between 0 and 180 degrees, not {f}"))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// `camera` with the user's `--eye`, `--target` and `--fov` where given.
+pub(super) fn aim(
+    camera: Camera,
+    eye: Option<Vec3>,
+    target: Option<Vec3>,
+    fov: Option<f32>,
+) -> Camera {
+    Camera {
+        eye: eye.unwrap_or(camera.eye),
+        target: target.unwrap_or(camera.target),
+        fov_deg: fov.unwrap_or(camera.fov_deg),
+        ..camera
+    }
+}
+
 /// A tree blob from `path`: read when it is a `.kdt`, else the mesh
 /// loaded and built with the default builder.
-fn tree_blob(path: &Path) -> Result<Blob, Box<dyn std::error::Error>> {
+pub(super) fn tree_blob(
+    path: &Path,
+    mesh_args: MeshArgs,
+) -> Result<Blob, Box<dyn std::error::Error>> {
     let is_blob = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("kdt"));
     Ok(if is_blob {
         Blob::read(path).map_err(|e| format!("{}: {e}", path.display()))?
     } else {
-        let tris = mesh::load(path)?;
+        let tris = mesh_args.load(path)?;
         let built = build(&tris, BuilderKind::default(), &BuildParams::default())?;
         write_triangle_tree(&built, &tris)?
     })
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
-    if a.width == 0 || a.height == 0 {
-        return Err("--width and --height must be at least 1".into());
-    }
+    // Every argument is checked before the scene is loaded or built.
+    io::check_output(&a.output)?;
+    check_image(a.width, a.height, "--width and --height")?;
+    check_fov(a.fov)?;
     let pool = thread_pool(a.threads)?;
-    let blob = tree_blob(&a.input)?;
+    let blob = tree_blob(&a.input, a.mesh_args)?;
     let tree = blob
         .tree()
         .map_err(|e| format!("{}: invalid tree blob: {e}", a.input.display()))?;
     let scene = tree.bounds();
-    let mut camera = Camera::framing(&scene);
-    camera.eye = a.eye.unwrap_or(camera.eye);
-    camera.target = a.target.unwrap_or(camera.target);
-    camera.fov_deg = a.fov.unwrap_or(camera.fov_deg);
-    if !(camera.fov_deg > 0.0 && camera.fov_deg < 180.0) {
-        return Err("--fov must be between 0 and 180 degrees".into());
-    }
+    let camera = aim(Camera::framing(&scene), a.eye, a.target, a.fov);
     let params = RenderParams::new(camera, a.width, a.height, &scene);
     let t = Instant::now();
     let image = if a.heatmap {
@@ -121,7 +146,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let seconds = t.elapsed().as_secs_f64();
     image.write_png(&a.output)?;
     say!(
-        "rendered {}x{} {} ({}) on {} threads in {:.1} ms: {:.2} Mpixels/s (excluding loading and PNG writing)",
+        "rendered {}x{} {} ({}) on {} in {:.1} ms: {:.2} Mpixels/s (excluding loading and PNG writing)",
         a.width,
         a.height,
         if a.heatmap { "heatmap" } else { "picture" },
@@ -130,7 +155,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         } else {
             format!("packets of {}", a.packet.lanes())
         },
-        pool.current_num_threads(),
+        plural(pool.current_num_threads(), "thread"),
         seconds * 1e3,
         f64::from(a.width) * f64::from(a.height) / seconds.max(1e-12) / 1e6
     );

@@ -26,9 +26,9 @@ pub(crate) struct Args {
     #[arg(long)]
     threads: Option<usize>,
     /// Rays traced together: 1 (single rays), 4, 8 or 16 (packets of that
-    /// many consecutive rays: order the file in 2x2 / 4x2 pixel tiles, e.g.
-    /// `primary_tiled.rays`; 16 takes two 4x2 tiles side by side). The hits
-    /// are the same bit for bit.
+    /// many consecutive rays: order the file in pixel tiles, as `kdray rays
+    /// --kind camera-tiled --packet N` does). The hits are the same bit for
+    /// bit.
     #[arg(long, default_value = "1", value_parser = parse_width)]
     packet: PacketWidth,
     /// Print one JSON object instead of the summary.

@@ -41,7 +41,9 @@ const VERTS: [[f32; 3]; 5] = [
 const FACES: [&[u32]; 2] = [&[0, 1, 2, 3], &[0, 1, 4]];
 
 fn expected() -> Vec<Triangle> {
-    let p = tmp("ref.obj");
+    // One file per test thread: tests run in parallel, and a reader must
+    // not see another thread's half-written copy.
+    let p = tmp(&format!("ref-{:?}.obj", std::thread::current().id()));
     let mut obj = String::new();
     for v in VERTS {
         obj += &format!("v {} {} {}\n", v[0], v[1], v[2]);

@@ -2,12 +2,11 @@
 //! commands on (`docs/formats.md`): camera rays in row order or in packet
 //! tiles, random rays through the scene, or the shadow rays of a render.
 
-use super::render::{aim, check_fov, parse_vec3, tree_blob};
+use super::render::{tree_blob, View};
 use super::trace::parse_width;
-use super::{check_image, CmdResult, MeshArgs, MAX_PIXELS};
-use glam::Vec3;
+use super::{CmdResult, MeshArgs, MAX_PIXELS};
 use kdray_kernel::{Hit, PacketWidth, Ray};
-use kdray_tools::camera::{random_rays, Camera};
+use kdray_tools::camera::random_rays;
 use kdray_tools::io;
 use kdray_tools::render::{shadow_ray, tile_size, tiled_pixels, RenderParams};
 use std::path::PathBuf;
@@ -38,21 +37,10 @@ pub(crate) struct Args {
     /// What rays.
     #[arg(long, value_enum, default_value = "camera")]
     kind: Kind,
-    /// Image width in pixels (camera, camera-tiled, shadow).
-    #[arg(long, default_value_t = 640)]
-    width: u32,
-    /// Image height in pixels (camera, camera-tiled, shadow).
-    #[arg(long, default_value_t = 480)]
-    height: u32,
-    /// Eye position `x,y,z` (default: framing the whole scene, as `render`).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    eye: Option<Vec3>,
-    /// The point looked at, `x,y,z` (default: the scene's centre).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    target: Option<Vec3>,
-    /// Vertical field of view in degrees.
-    #[arg(long)]
-    fov: Option<f32>,
+    /// The camera (camera, camera-tiled, shadow), framing the scene as
+    /// `render` does.
+    #[command(flatten)]
+    view: View,
     /// camera-tiled: the packet width the tiles are for: 4 (2x2 pixels),
     /// 8 (4x2) or 16 (4x4), as `render` traces them.
     #[arg(long, default_value = "8", value_parser = parse_width)]
@@ -69,8 +57,7 @@ pub(crate) struct Args {
 
 pub(crate) fn run(a: &Args) -> CmdResult {
     io::check_output(&a.output)?;
-    check_image(a.width, a.height, "--width and --height")?;
-    check_fov(a.fov)?;
+    a.view.check()?;
     if a.count == 0 || a.count as u64 > MAX_PIXELS {
         return Err(format!(
             "--count must be between 1 and {MAX_PIXELS}, not {}",
@@ -83,8 +70,8 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         .tree()
         .map_err(|e| format!("{}: invalid tree blob: {e}", a.scene.display()))?;
     let scene = tree.bounds();
-    let camera = aim(Camera::framing(&scene), a.eye, a.target, a.fov);
-    let (w, h) = (a.width, a.height);
+    let camera = a.view.camera(&scene);
+    let (w, h) = (a.view.width, a.view.height);
     let rays: Vec<Ray> = match a.kind {
         Kind::Camera => camera.rays(w, h),
         Kind::CameraTiled => tiled_pixels(w, h, tile_size(a.packet))

@@ -5,7 +5,7 @@ use super::progress::counted_bar;
 use super::trace::parse_width;
 use super::{check_image, plural, thread_pool, CmdResult, MeshArgs};
 use glam::Vec3;
-use kdray_kernel::PacketWidth;
+use kdray_kernel::{Bounds, PacketWidth};
 use kdray_tools::blob::{write_triangle_tree, Blob};
 use kdray_tools::builders::{build, BuildParams, BuilderKind};
 use kdray_tools::camera::Camera;
@@ -23,21 +23,8 @@ pub(crate) struct Args {
     /// Where to write the PNG.
     #[arg(short, long)]
     output: PathBuf,
-    /// Eye position `x,y,z` (default: framing the whole scene).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    eye: Option<Vec3>,
-    /// The point looked at, `x,y,z` (default: the scene's centre).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    target: Option<Vec3>,
-    /// Vertical field of view in degrees.
-    #[arg(long)]
-    fov: Option<f32>,
-    /// Image width in pixels.
-    #[arg(long, default_value_t = 640)]
-    width: u32,
-    /// Image height in pixels.
-    #[arg(long, default_value_t = 480)]
-    height: u32,
+    #[command(flatten)]
+    view: View,
     /// Render the traversal cost per pixel (nodes visited + triangles
     /// tested, single rays) instead of the shaded picture.
     #[arg(long)]
@@ -53,7 +40,7 @@ pub(crate) struct Args {
     mesh_args: MeshArgs,
 }
 
-pub(super) fn parse_vec3(s: &str) -> Result<Vec3, String> {
+fn parse_vec3(s: &str) -> Result<Vec3, String> {
     let parts: Vec<f32> = s
         .split(',')
         .map(|p| p.trim().parse::<f32>())
@@ -65,28 +52,49 @@ pub(super) fn parse_vec3(s: &str) -> Result<Vec3, String> {
     }
 }
 
-/// Refuses a field of view outside (0, 180) degrees.
-pub(super) fn check_fov(fov: Option<f32>) -> Result<(), String> {
-    match fov {
-        Some(f) if !(f > 0.0 && f < 180.0) => {
-            Err(format!("--fov must be between 0 and 180 degrees, not {f}"))
-        }
-        _ => Ok(()),
-    }
+/// The camera and image size, for `render` and `rays` alike.
+#[derive(clap::Args, Debug)]
+pub(super) struct View {
+    /// Eye position `x,y,z` (default: framing the whole scene).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    eye: Option<Vec3>,
+    /// The point looked at, `x,y,z` (default: the scene's centre).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    target: Option<Vec3>,
+    /// Vertical field of view in degrees.
+    #[arg(long)]
+    fov: Option<f32>,
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 640)]
+    pub(super) width: u32,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 480)]
+    pub(super) height: u32,
 }
 
-/// `camera` with the user's `--eye`, `--target` and `--fov` where given.
-pub(super) fn aim(
-    camera: Camera,
-    eye: Option<Vec3>,
-    target: Option<Vec3>,
-    fov: Option<f32>,
-) -> Camera {
-    Camera {
-        eye: eye.unwrap_or(camera.eye),
-        target: target.unwrap_or(camera.target),
-        fov_deg: fov.unwrap_or(camera.fov_deg),
-        ..camera
+impl View {
+    /// Refuses an image of no pixels or too many, and a field of view
+    /// outside (0, 180) degrees.
+    pub(super) fn check(&self) -> Result<(), String> {
+        check_image(self.width, self.height, "--width and --height")?;
+        match self.fov {
+            Some(f) if !(f > 0.0 && f < 180.0) => {
+                Err(format!("--fov must be between 0 and 180 degrees, not {f}"))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// The camera framing `scene`, with the user's eye, target and field
+    /// of view where given.
+    pub(super) fn camera(&self, scene: &Bounds) -> Camera {
+        let framing = Camera::framing(scene);
+        Camera {
+            eye: self.eye.unwrap_or(framing.eye),
+            target: self.target.unwrap_or(framing.target),
+            fov_deg: self.fov.unwrap_or(framing.fov_deg),
+            ..framing
+        }
     }
 }
 
@@ -111,19 +119,19 @@ pub(super) fn tree_blob(
 pub(crate) fn run(a: &Args) -> CmdResult {
     // Every argument is checked before the scene is loaded or built.
     io::check_output(&a.output)?;
-    check_image(a.width, a.height, "--width and --height")?;
-    check_fov(a.fov)?;
+    a.view.check()?;
     let pool = thread_pool(a.threads)?;
     let blob = tree_blob(&a.input, a.mesh_args)?;
     let tree = blob
         .tree()
         .map_err(|e| format!("{}: invalid tree blob: {e}", a.input.display()))?;
     let scene = tree.bounds();
-    let camera = aim(Camera::framing(&scene), a.eye, a.target, a.fov);
-    let params = RenderParams::new(camera, a.width, a.height, &scene);
+    let camera = a.view.camera(&scene);
+    let (width, height) = (a.view.width, a.view.height);
+    let params = RenderParams::new(camera, width, height, &scene);
     let t = Instant::now();
     let image = if a.heatmap {
-        let bar = counted_bar(u64::from(a.height));
+        let bar = counted_bar(u64::from(height));
         let h = pool.install(|| render_heatmap(&tree, &params, &|| bar.inc(1)));
         bar.finish_and_clear();
         say!(
@@ -134,7 +142,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         );
         h.image
     } else {
-        let bar = counted_bar(bands(a.height, a.packet));
+        let bar = counted_bar(bands(height, a.packet));
         let tracer = TreeTracer {
             tree: &tree,
             width: a.packet,
@@ -147,8 +155,8 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     image.write_png(&a.output)?;
     say!(
         "rendered {}x{} {} ({}) on {} in {:.1} ms: {:.2} Mpixels/s (excluding loading and PNG writing)",
-        a.width,
-        a.height,
+        width,
+        height,
         if a.heatmap { "heatmap" } else { "picture" },
         if a.heatmap {
             "single rays, counted".to_string()
@@ -157,7 +165,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         },
         plural(pool.current_num_threads(), "thread"),
         seconds * 1e3,
-        f64::from(a.width) * f64::from(a.height) / seconds.max(1e-12) / 1e6
+        f64::from(width) * f64::from(height) / seconds.max(1e-12) / 1e6
     );
     say!("wrote {}", a.output.display());
     Ok(())

@@ -18,8 +18,9 @@ use std::sync::atomic::{AtomicI32, Ordering};
 const SIGHUP: c_int = 1;
 const SIGINT: c_int = 2;
 const SIGTERM: c_int = 15;
-/// The same number on Linux (x86, Arm, RISC-V) and macOS.
-#[cfg(any(
+/// SIGXFSZ: the same number on Linux (x86, Arm, RISC-V) and macOS; not
+/// touched elsewhere.
+const SIGXFSZ: Option<c_int> = if cfg!(any(
     target_os = "macos",
     all(
         target_os = "linux",
@@ -31,22 +32,11 @@ const SIGTERM: c_int = 15;
             target_arch = "riscv64"
         )
     )
-))]
-const SIGXFSZ: Option<c_int> = Some(25);
-#[cfg(not(any(
-    target_os = "macos",
-    all(
-        target_os = "linux",
-        any(
-            target_arch = "x86_64",
-            target_arch = "x86",
-            target_arch = "aarch64",
-            target_arch = "arm",
-            target_arch = "riscv64"
-        )
-    )
-)))]
-const SIGXFSZ: Option<c_int> = None;
+)) {
+    Some(25)
+} else {
+    None
+};
 
 /// `sighandler_t` values.
 const SIG_DFL: usize = 0;

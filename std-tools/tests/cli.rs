@@ -328,13 +328,22 @@ fn outputs_are_written_through_or_replaced_keeping_links_and_modes() {
         .status()
         .unwrap()
         .success());
-    let reader = {
-        let fifo = fifo.clone();
-        std::thread::spawn(move || std::fs::read(fifo).unwrap())
+    // Our end is opened first, without blocking, so kdray's open does not
+    // wait, and a kdray that never opens the pipe leaves it empty instead
+    // of hanging the test. The tree is far smaller than a pipe's buffer.
+    let mut reader = {
+        use std::os::unix::fs::OpenOptionsExt;
+        const O_NONBLOCK: i32 = 0o4000;
+        std::fs::OpenOptions::new()
+            .read(true)
+            .custom_flags(O_NONBLOCK)
+            .open(&fifo)
+            .unwrap()
     };
     let o = kdray(&["build", &obj, "-o", &s(&fifo)]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let through = reader.join().unwrap();
+    let mut through = Vec::new();
+    let _ = std::io::Read::read_to_end(&mut reader, &mut through);
     let kind = std::fs::symlink_metadata(&fifo).unwrap().file_type();
     assert!(kind.is_fifo(), "the pipe was replaced by a file");
 

@@ -4,10 +4,11 @@
 //! real meshes; degenerate inputs build without panic; the tree is the same
 //! for any thread count.
 
+mod common;
+
 use kdray::kernel::{any_hit_brute, closest_hit_brute, Ray, Triangle};
 use kdray::tools::blob::write_triangle_tree;
 use kdray::tools::builders::{build, BuildError, BuildParams, BuilderKind};
-use std::path::Path;
 
 use kdray::tools::rng::Rng;
 
@@ -232,16 +233,11 @@ fn non_finite_vertices_are_rejected_by_index() {
     }
 }
 
-/// A mesh of `../shared/meshes`, or `None` in a clone without it (the
-/// generated scenes still run).
+/// A mesh of the real-mesh folder (`KDRAY_MESHES` or `../shared/meshes`),
+/// or `None`, said on stderr, in a clone without it (the generated scenes
+/// still run).
 fn mesh(name: &str) -> Option<Vec<Triangle>> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/meshes")
-        .join(name);
-    if !p.is_file() {
-        eprintln!("{} not found: skipped", p.display());
-        return None;
-    }
+    let p = common::shared_mesh("builders", name)?;
     Some(kdray::tools::mesh::load(&p).unwrap_or_else(|e| panic!("{e}")))
 }
 

@@ -102,6 +102,9 @@ mod triangle_tree;
 
 pub use blob::{node, wire, BlobError, Node, NodeKind, WriteError, MAX_DEPTH};
 pub use geometry::{ray_is_valid, Axis, Bounds, Hit, Ray, MISS, OCCLUDED};
+/// The `glam` whose `Vec3` the ray constructors take: use it (or this
+/// version of the crate) so the types match.
+pub use glam;
 pub use points::{
     distance2, knn_brute, nearest_brute, within_brute, BufferTooSmall, Neighbour, PointTree,
 };

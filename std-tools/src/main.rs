@@ -1,5 +1,5 @@
 //! The `kdray` command-line tool: build, inspect and trace k-d trees.
-#![forbid(unsafe_code)]
+#![deny(unsafe_code)]
 
 /// The build makes and frees a few small lists per cell (hundreds of
 /// thousands of cells): glibc's malloc was 11% of a bunny build. mimalloc

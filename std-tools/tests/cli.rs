@@ -292,3 +292,422 @@ fn demo_writes_both_pictures() {
         assert!(stdout(&o).contains(name), "{}", stdout(&o));
     }
 }
+
+/// The files in `dir` whose names say they are kdray's temporaries.
+fn temporaries(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".tmp"))
+        .collect()
+}
+
+/// A fresh folder of its own for a test that counts temporaries.
+fn folder(name: &str) -> PathBuf {
+    let dir = tmp(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Devices and pipes are written through, a symlink stays a symlink with
+/// its target replaced, and a replaced file keeps its permissions.
+#[cfg(unix)]
+#[test]
+fn outputs_are_written_through_or_replaced_keeping_links_and_modes() {
+    use std::os::unix::fs::{FileTypeExt, PermissionsExt};
+    let dir = folder("outputs");
+    let obj = write(&dir.join("q.obj"), QUAD_OBJ);
+    let s = |p: &Path| p.display().to_string();
+    // A pipe stands for every non-regular output (`/dev/null` itself would
+    // be destroyed, for everyone, by a regression run as root).
+    let fifo = dir.join("pipe.kdt");
+    assert!(Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap()
+        .success());
+    // Our end is opened first, without blocking, so kdray's open does not
+    // wait, and a kdray that never opens the pipe leaves it empty instead
+    // of hanging the test. The tree is far smaller than a pipe's buffer.
+    let mut reader = {
+        use std::os::unix::fs::OpenOptionsExt;
+        const O_NONBLOCK: i32 = 0o4000;
+        std::fs::OpenOptions::new()
+            .read(true)
+            .custom_flags(O_NONBLOCK)
+            .open(&fifo)
+            .unwrap()
+    };
+    let o = kdray(&["build", &obj, "-o", &s(&fifo)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut through = Vec::new();
+    let _ = std::io::Read::read_to_end(&mut reader, &mut through);
+    let kind = std::fs::symlink_metadata(&fifo).unwrap().file_type();
+    assert!(kind.is_fifo(), "the pipe was replaced by a file");
+
+    let target = dir.join("target.kdt");
+    std::fs::write(&target, b"old").unwrap();
+    std::fs::set_permissions(&target, std::fs::Permissions::from_mode(0o640)).unwrap();
+    let link = dir.join("link.kdt");
+    std::os::unix::fs::symlink("target.kdt", &link).unwrap();
+    let o = kdray(&["build", &obj, "-o", &s(&link)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(link.symlink_metadata().unwrap().file_type().is_symlink());
+    let blob = std::fs::read(&target).unwrap();
+    let direct = dir.join("direct.kdt");
+    assert!(kdray(&["build", &obj, "-o", &s(&direct)]).status.success());
+    assert_eq!(
+        blob,
+        std::fs::read(&direct).unwrap(),
+        "the link's target holds the tree"
+    );
+    assert_eq!(through, blob, "the pipe's reader got the tree");
+    let mode = std::fs::metadata(&target).unwrap().permissions().mode() & 0o777;
+    assert_eq!(mode, 0o640);
+
+    let ro = dir.join("ro.kdt");
+    std::fs::write(&ro, b"old").unwrap();
+    std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o444)).unwrap();
+    let o = kdray(&["build", &obj, "-o", &s(&ro)]);
+    let mode = std::fs::metadata(&ro).unwrap().permissions().mode() & 0o777;
+    assert_eq!(mode, 0o444, "{}", stderr(&o));
+    assert!(temporaries(&dir).is_empty(), "{:?}", temporaries(&dir));
+}
+
+/// SIGTERM while the output's temporary exists: the temporary is removed,
+/// the old file stays, and the process dies of the signal.
+#[cfg(unix)]
+#[test]
+fn a_signal_removes_the_temporary_and_keeps_the_old_output() {
+    use std::os::unix::process::ExitStatusExt;
+    for signal in ["TERM", "INT"] {
+        let dir = folder(&format!("signal-{signal}"));
+        let obj = write(&dir.join("q.obj"), QUAD_OBJ);
+        let out = dir.join("q.kdt");
+        std::fs::write(&out, b"the old tree").unwrap();
+        let mut child = Command::new(env!("CARGO_BIN_EXE_kdray"))
+            .args(["build", &obj, "-o", &out.display().to_string()])
+            .env("KDRAY_TEST_HOLD_OUTPUT_MS", "20000")
+            .stdout(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        let start = std::time::Instant::now();
+        while temporaries(&dir).is_empty() {
+            assert!(start.elapsed().as_secs() < 60, "no temporary appeared");
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let killed = Command::new("kill")
+            .args([&format!("-{signal}"), &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(killed.success());
+        let status = child.wait().unwrap();
+        assert!(status.signal().is_some(), "{signal}: {status:?}");
+        assert!(temporaries(&dir).is_empty(), "{:?}", temporaries(&dir));
+        assert_eq!(std::fs::read(&out).unwrap(), b"the old tree");
+    }
+}
+
+/// A write that fails part way (the file size limit) keeps the previous
+/// picture and leaves no temporary.
+#[cfg(unix)]
+#[test]
+fn a_failed_write_keeps_the_previous_picture() {
+    let dir = folder("fsize");
+    let obj = write(&dir.join("q.obj"), QUAD_OBJ);
+    let png = dir.join("q.png");
+    std::fs::write(&png, b"the previous picture").unwrap();
+    // bash counts the limit in 1024-byte blocks: 1 KiB, far less than a
+    // 600x600 PNG (10 KB).
+    let o = Command::new("bash")
+        .args([
+            "-c",
+            "ulimit -f 1 && exec \"$0\" render \"$1\" -o \"$2\" --width 600 --height 600",
+            env!("CARGO_BIN_EXE_kdray"),
+            &obj,
+            &png.display().to_string(),
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("q.png"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&png).unwrap(), b"the previous picture");
+    assert!(temporaries(&dir).is_empty(), "{:?}", temporaries(&dir));
+}
+
+/// Bad arguments are refused before the input is even read: each case
+/// names a mesh that does not exist, and the error is about the argument.
+#[test]
+fn arguments_are_checked_before_the_work() {
+    let tree = tmp("first.kdt").display().to_string();
+    let missing = "/nonexistent/mesh.obj";
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec!["build", missing, "-o", "/nonexistent-folder/x.kdt"],
+            "the folder /nonexistent-folder does not exist",
+        ),
+        (
+            vec!["build", missing, "-o", &tree, "--builder", "sha"],
+            "unknown builder 'sha'",
+        ),
+        (vec!["build", missing, "-o", "/tmp"], "is a folder"),
+        (
+            vec!["render", missing, "-o", "/nonexistent-folder/x.png"],
+            "does not exist",
+        ),
+        (
+            vec![
+                "trace",
+                missing,
+                missing,
+                "-o",
+                "/nonexistent-folder/x.hits",
+            ],
+            "does not exist",
+        ),
+        (
+            vec!["knn", missing, missing, "-o", "/nonexistent-folder/x.knn"],
+            "does not exist",
+        ),
+        (
+            vec!["build-points", missing, "-o", "/nonexistent-folder/x.kdt"],
+            "does not exist",
+        ),
+        (
+            vec!["rays", missing, "-o", "/nonexistent-folder/x.rays"],
+            "does not exist",
+        ),
+        (
+            vec!["demo", "--out-dir", "/dev/null/out"],
+            "/dev/null/out: cannot create",
+        ),
+    ];
+    for (args, want) in cases {
+        let o = kdray(&args);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(want), "{args:?}: {}", stderr(&o));
+        assert!(
+            !stdout(&o).contains("built-in scene"),
+            "{args:?} did the work"
+        );
+    }
+}
+
+/// Sizes from the command line are checked: a clear error (exit 1 or 2),
+/// never an abort (134) or a panic (101).
+#[test]
+fn sizes_are_checked() {
+    let obj = write(&tmp("sizes.obj"), QUAD_OBJ);
+    let pts: Vec<u8> = (0..30u32)
+        .flat_map(|i| [i as f32, 0.5, 0.25])
+        .flat_map(f32::to_le_bytes)
+        .collect();
+    let pts = write(&tmp("sizes.pts"), &pts);
+    let out = tmp("sizes.out").display().to_string();
+    let png = tmp("sizes.png").display().to_string();
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec!["knn", &pts, &pts, "-k", "1000000000000", "-o", &out],
+            "more than the 30 points",
+        ),
+        (
+            vec![
+                "render", &obj, "-o", &png, "--width", "100000", "--height", "100000",
+            ],
+            "16384 x 16384",
+        ),
+        (
+            vec!["render", &obj, "-o", &png, "--width", "4294967295"],
+            "16384 x 16384",
+        ),
+        (
+            vec!["render", &obj, "-o", &png, "--width", "0"],
+            "at least 1",
+        ),
+        (
+            vec!["render", &obj, "-o", &png, "--threads", "100000"],
+            "more than 1024",
+        ),
+        (
+            vec!["build", &obj, "-o", &out, "--threads", "100000"],
+            "more than 1024",
+        ),
+        (
+            vec!["render", &obj, "-o", &png, "--threads", "0"],
+            "at least 1",
+        ),
+        (
+            vec!["build", &obj, "-o", &out, "--threads", "0"],
+            "at least 1",
+        ),
+        (
+            vec!["knn", &pts, &pts, "-o", &out, "--threads", "0"],
+            "at least 1",
+        ),
+        (
+            vec!["knn", &pts, &pts, "-o", &out, "--leaf-size", "0"],
+            "--leaf-size",
+        ),
+        (
+            vec!["build-points", &pts, "-o", &out, "--leaf-size", "0"],
+            "--leaf-size",
+        ),
+        (vec!["demo", "--size", "100000"], "16384 x 16384"),
+        (vec!["bench", "needles", "--rays", "100000000000"], "--rays"),
+        (vec!["rays", &obj, "-o", &out, "--count", "0"], "--count"),
+        (vec!["render", &obj, "-o", &png, "--fov", "200"], "--fov"),
+    ];
+    for (args, want) in cases {
+        let o = kdray(&args);
+        let err = stderr(&o);
+        assert!(
+            matches!(o.status.code(), Some(1 | 2)),
+            "{args:?}: {:?} {err}",
+            o.status
+        );
+        assert!(
+            err.contains(want),
+            "{args:?}: {err:?} does not say {want:?}"
+        );
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+    // bench alone takes 0 as all cores.
+    let o = kdray(&[
+        "bench",
+        "needles",
+        "--rays",
+        "64",
+        "--repeat",
+        "1",
+        "--threads",
+        "0",
+        "--builders",
+        "median",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// Mesh problems through the binary: faces of fewer than three corners, an
+/// empty file, a file cut inside its vertices: errors with the line.
+#[test]
+fn bad_meshes_are_refused_with_the_line() {
+    let out = tmp("badmesh.kdt").display().to_string();
+    let cases: [(&str, &[u8], &str); 4] = [
+        (
+            "two.obj",
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n",
+            "two.obj:4: a face needs at least 3 corners, this one has 2",
+        ),
+        (
+            "one.obj",
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 4\n",
+            "one.obj:5: a face needs at least 3 corners, this one has 1",
+        ),
+        ("empty.obj", b"", "empty.obj: the mesh has no triangles"),
+        (
+            "cut.obj",
+            b"v 0 0 0\nv 1 0 0\nv 0 1",
+            "cut.obj:3: malformed OBJ",
+        ),
+    ];
+    for (name, bytes, want) in cases {
+        let obj = write(&tmp(name), bytes);
+        let o = kdray(&["build", &obj, "-o", &out]);
+        assert_eq!(o.status.code(), Some(1), "{name}: {}", stderr(&o));
+        assert!(stderr(&o).contains(want), "{name}: {}", stderr(&o));
+    }
+}
+
+/// `kdray rays` makes every kind; camera-tiled holds the camera rays in
+/// tile order; the hits of both are the same per pixel; shadow rays trace.
+#[test]
+fn rays_makes_files_the_other_commands_read() {
+    let obj = write(&tmp("rays.obj"), QUAD_OBJ);
+    let tree = tmp("rays.kdt").display().to_string();
+    assert!(kdray(&["build", &obj, "-o", &tree]).status.success());
+    let file = |kind: &str| tmp(&format!("rays-{kind}.rays"));
+    for (kind, count) in [
+        ("camera", 24 * 10),
+        ("camera-tiled", 24 * 10),
+        ("random", 77),
+    ] {
+        let out = file(kind).display().to_string();
+        let o = kdray(&[
+            "rays", &obj, "-o", &out, "--kind", kind, "--width", "24", "--height", "10", "--count",
+            "77",
+        ]);
+        assert!(o.status.success(), "{kind}: {}", stderr(&o));
+        assert_eq!(std::fs::read(&out).unwrap().len(), count * 32, "{kind}");
+    }
+    let records = |p: &Path| -> Vec<Vec<u8>> {
+        std::fs::read(p)
+            .unwrap()
+            .chunks(32)
+            .map(<[u8]>::to_vec)
+            .collect()
+    };
+    let (row, tiled) = (records(&file("camera")), records(&file("camera-tiled")));
+    assert_ne!(row, tiled);
+    // The first 4x2 tile: pixels (0..4, 0) then (0..4, 1).
+    assert_eq!(tiled[..4], row[..4]);
+    assert_eq!(tiled[4..8], row[24..28]);
+    let (mut a, mut b) = (row.clone(), tiled.clone());
+    a.sort();
+    b.sort();
+    assert_eq!(a, b, "the same rays in another order");
+
+    let shadow = file("shadow").display().to_string();
+    let o = kdray(&[
+        "rays", &obj, "-o", &shadow, "--kind", "shadow", "--width", "24", "--height", "10",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let n = std::fs::read(&shadow).unwrap().len() / 32;
+    assert!(n > 0 && n <= 240, "{n} shadow rays");
+    let hits = tmp("rays-shadow.hits").display().to_string();
+    let o = kdray(&[
+        "trace",
+        &tree,
+        &shadow,
+        "-o",
+        &hits,
+        "--any-hit",
+        "--threads",
+        "1",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("on 1 thread,"), "{}", stdout(&o));
+}
+
+/// `info --json` says `"valid": true` as a boolean, and on failure prints
+/// `"valid": false` with the error; `trace --counts --json` has the counts.
+#[test]
+fn json_outputs_say_everything() {
+    let obj = write(&tmp("json.obj"), QUAD_OBJ);
+    let tree = tmp("json.kdt").display().to_string();
+    assert!(kdray(&["build", &obj, "-o", &tree]).status.success());
+    let o = kdray(&["info", &tree, "--json"]);
+    assert!(stdout(&o).contains("\"valid\": true"), "{}", stdout(&o));
+    let junk = write(&tmp("json-junk.kdt"), b"junk");
+    let o = kdray(&["info", &junk, "--json"]);
+    assert_eq!(o.status.code(), Some(1));
+    let out = stdout(&o);
+    assert!(
+        out.contains("\"valid\": false") && out.contains("\"error\": \""),
+        "{out}"
+    );
+    let rays = tmp("json.rays").display().to_string();
+    assert!(
+        kdray(&["rays", &obj, "-o", &rays, "--width", "8", "--height", "8"])
+            .status
+            .success()
+    );
+    let hits = tmp("json.hits").display().to_string();
+    let o = kdray(&["trace", &tree, &rays, "-o", &hits, "--counts", "--json"]);
+    let out = stdout(&o);
+    assert!(
+        out.contains("\"nodes_per_ray\"") && out.contains("\"triangles_per_ray\""),
+        "{out}"
+    );
+}

@@ -41,7 +41,9 @@ const VERTS: [[f32; 3]; 5] = [
 const FACES: [&[u32]; 2] = [&[0, 1, 2, 3], &[0, 1, 4]];
 
 fn expected() -> Vec<Triangle> {
-    let p = tmp("ref.obj");
+    // One file per test thread: tests run in parallel, and a reader must
+    // not see another thread's half-written copy.
+    let p = tmp(&format!("ref-{:?}.obj", std::thread::current().id()));
     let mut obj = String::new();
     for v in VERTS {
         obj += &format!("v {} {} {}\n", v[0], v[1], v[2]);
@@ -356,4 +358,109 @@ fn gltf_errors_name_the_place() {
     let glb = glb(&gltf_json(None, bin.len(), pos_len), &bin);
     let e = error("cut.glb", &glb[..glb.len() - 20]);
     assert!(e.contains("malformed glTF") || e.contains("buffer"), "{e}");
+}
+
+#[test]
+fn ply_data_after_the_last_element_is_refused() {
+    let ascii = ply_ascii() + "1 2 3\n";
+    let e = error("junk.ply", ascii.as_bytes());
+    assert!(
+        e.contains(":24:") && e.contains("after the last element"),
+        "{e}"
+    );
+    let mut bin = ply_binary(false);
+    bin.extend(b"junk");
+    let e = error("junk-le.ply", &bin);
+    assert!(
+        e.contains("4 bytes") && e.contains("after the last element"),
+        "{e}"
+    );
+    // Blank lines at the end of an ASCII body are not data.
+    let blank = ply_ascii() + "\n\n";
+    assert_eq!(
+        load(&write("blank.ply", blank.as_bytes())).unwrap(),
+        expected()
+    );
+}
+
+#[test]
+fn gltf_buffers_stay_in_the_gltf_folder_unless_allowed() {
+    use kdray_tools::mesh::{load_with, LoadOptions};
+    let (bin, pos_len) = gltf_bin();
+    let inner = tmp("inner");
+    std::fs::create_dir_all(&inner).unwrap();
+    write("outside.bin", &bin);
+    let outside = tmp("outside.bin").display().to_string();
+    for uri in [
+        "../outside.bin",
+        outside.as_str(),
+        "file:///etc/passwd",
+        "%2E%2E/outside.bin",
+    ] {
+        let json = gltf_json(Some(uri), bin.len(), pos_len);
+        let p = inner.join("escape.gltf");
+        std::fs::write(&p, &json).unwrap();
+        let e = load(&p).expect_err(uri).to_string();
+        assert!(
+            e.contains("buffer 0")
+                && (e.contains("outside the glTF's folder") || e.contains("only relative")),
+            "{uri}: {e}"
+        );
+        if !uri.starts_with("file:") {
+            let allowed = LoadOptions {
+                allow_outside_uris: true,
+            };
+            assert_eq!(
+                load_with(&p, &allowed).unwrap().triangles,
+                gltf_expected(),
+                "{uri}"
+            );
+        }
+    }
+    // A symlink in the folder that leads out of it.
+    #[cfg(unix)]
+    {
+        let link = inner.join("link.bin");
+        let _ = std::fs::remove_file(&link);
+        std::os::unix::fs::symlink(tmp("outside.bin"), &link).unwrap();
+        let p = inner.join("link.gltf");
+        std::fs::write(&p, gltf_json(Some("link.bin"), bin.len(), pos_len)).unwrap();
+        let e = load(&p).unwrap_err().to_string();
+        assert!(e.contains("outside the glTF's folder"), "{e}");
+    }
+    // Inside, with an escaped name.
+    std::fs::write(inner.join("my mesh.bin"), &bin).unwrap();
+    let p = inner.join("spaced.gltf");
+    std::fs::write(&p, gltf_json(Some("my%20mesh.bin"), bin.len(), pos_len)).unwrap();
+    assert_eq!(load(&p).unwrap(), gltf_expected());
+}
+
+#[test]
+fn gltf_points_and_lines_are_reported() {
+    use kdray_tools::mesh::{load_with, LoadOptions};
+    let (bin, pos_len) = gltf_bin();
+    let json = gltf_json(Some(&data_uri(&bin)), bin.len(), pos_len).replace(
+        r#""primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]"#,
+        r#""primitives": [{"attributes": {"POSITION": 0}, "indices": 1}, {"attributes": {"POSITION": 0}, "mode": 0}, {"attributes": {"POSITION": 0}, "mode": 1}]"#,
+    );
+    let m = load_with(
+        &write("mixed.gltf", json.as_bytes()),
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(m.triangles, gltf_expected());
+    let all = m.skipped.join("\n");
+    assert!(
+        all.contains("mesh 0 primitive 1: a POINTS primitive (5 vertices)"),
+        "{all}"
+    );
+    assert!(
+        all.contains("mesh 0 primitive 2: a LINES primitive"),
+        "{all}"
+    );
+    // A file of points only has no triangles: an error.
+    let only = gltf_json(Some(&data_uri(&bin)), bin.len(), pos_len)
+        .replace(r#", "indices": 1}"#, r#", "mode": 0}"#);
+    let e = error("points.gltf", only.as_bytes());
+    assert!(e.contains("no triangles"), "{e}");
 }

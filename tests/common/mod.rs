@@ -7,12 +7,48 @@ use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use std::path::PathBuf;
 
-/// The shared meshes folder, if present (`KDRAY_MESHES` overrides).
-pub(crate) fn shared_meshes() -> Option<PathBuf> {
-    let dir = std::env::var_os("KDRAY_MESHES")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/meshes")));
-    dir.is_dir().then_some(dir)
+/// The real-mesh folder: `KDRAY_MESHES` when set (it must be a folder:
+/// the user asked for it), else `../shared/meshes` when present. `None`
+/// in a clone without it, after a line on stderr saying `test` was skipped
+/// and which folder was missing.
+pub(crate) fn shared_meshes(test: &str) -> Option<PathBuf> {
+    if let Some(dir) = std::env::var_os("KDRAY_MESHES") {
+        let dir = PathBuf::from(dir);
+        assert!(
+            dir.is_dir(),
+            "KDRAY_MESHES={} is not a folder",
+            dir.display()
+        );
+        return Some(dir);
+    }
+    let dir = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/meshes"));
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!(
+            "{test}: SKIPPED: {} not found (set KDRAY_MESHES=DIR to use another folder)",
+            dir.display()
+        );
+        None
+    }
+}
+
+/// Whether the real meshes are the shared folder's (whose files and counts
+/// its README lists), not a folder of the user's own (`KDRAY_MESHES`).
+pub(crate) fn meshes_are_the_shared_set() -> bool {
+    std::env::var_os("KDRAY_MESHES").is_none()
+}
+
+/// The mesh `name` of the real-mesh folder, or `None` (with a "skipped"
+/// line naming the file) when the folder or the file is not there.
+pub(crate) fn shared_mesh(test: &str, name: &str) -> Option<PathBuf> {
+    let p = shared_meshes(test)?.join(name);
+    if p.is_file() {
+        Some(p)
+    } else {
+        eprintln!("{test}: {name} SKIPPED: {} not found", p.display());
+        None
+    }
 }
 
 /// Builds `tris` with `kind` and returns the blob (validated by the caller via `tree()`).

@@ -1,5 +1,5 @@
 //! Rays and hits, laid out exactly as the `.rays` and `.hits` files
-//! (`formats/RAYS.md`) and Embree's `RTCRay`, so a file maps onto a slice
+//! (`docs/formats.md`) and Embree's `RTCRay`, so a file maps onto a slice
 //! with [`bytemuck::cast_slice`] and nothing is converted.
 
 use bytemuck::{Pod, Zeroable};

@@ -9,12 +9,11 @@
 //! 1000-wide box of `gen_stadium.py`), `needles` (long thin axis-aligned
 //! triangles). Camera rays frame the detailed object.
 
-use super::CmdResult;
+use super::{check_image, check_threads, CmdResult, MeshArgs, MAX_PIXELS};
 use kdray_kernel::{Hit, Ray};
 use kdray_tools::blob::write_triangle_tree;
 use kdray_tools::builders::{build_monitored, BuildMonitor, BuildParams, BuilderKind};
 use kdray_tools::camera::{random_rays, Camera};
-use kdray_tools::mesh;
 use kdray_tools::scene::{bounds_of, in_stadium, needles, teapot_in_stadium, Scene};
 use kdray_tools::stats::{tree_stats, CostModel};
 use kdray_tools::trace::{trace_serial, PacketWidth, Query};
@@ -30,7 +29,7 @@ pub(crate) struct Args {
     /// Builders to run (comma-separated; default: all of them).
     #[arg(long, value_delimiter = ',')]
     builders: Vec<String>,
-    /// Build threads (default: all cores). Tracing is single-threaded.
+    /// Build threads (default, or 0: all cores). Tracing is single-threaded.
     #[arg(long)]
     threads: Option<usize>,
     /// Camera rays (a square image) and random rays per scene.
@@ -39,9 +38,11 @@ pub(crate) struct Args {
     /// Builds timed per builder (the best is reported).
     #[arg(long, default_value_t = 3)]
     repeat: usize,
+    #[command(flatten)]
+    mesh_args: MeshArgs,
 }
 
-fn scene(spec: &str) -> Result<(String, Scene), Box<dyn std::error::Error>> {
+fn scene(spec: &str, mesh_args: MeshArgs) -> Result<(String, Scene), Box<dyn std::error::Error>> {
     if spec == "stadium" {
         return Ok(("knot-in-stadium".into(), teapot_in_stadium()));
     }
@@ -49,10 +50,10 @@ fn scene(spec: &str) -> Result<(String, Scene), Box<dyn std::error::Error>> {
         return Ok(("needles".into(), needles(20_000)));
     }
     if let Some(path) = spec.strip_prefix("teapot-stadium:") {
-        let m = mesh::load(Path::new(path))?;
+        let m = mesh_args.load(Path::new(path))?;
         return Ok((format!("{}-in-stadium", file_stem(path)), in_stadium(&m)));
     }
-    let triangles = mesh::load(Path::new(spec))?;
+    let triangles = mesh_args.load(Path::new(spec))?;
     let focus = bounds_of(&triangles);
     Ok((file_stem(spec), Scene { triangles, focus }))
 }
@@ -85,6 +86,13 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             .map(|n| BuilderKind::parse(n))
             .collect::<Result<Vec<_>, _>>()?
     };
+    // --threads 0 is rayon's "all cores" here, as the builders take it.
+    check_threads(a.threads.filter(|&n| n > 0))?;
+    if a.rays as u64 > MAX_PIXELS {
+        return Err(format!("--rays {} is more than {MAX_PIXELS}", a.rays).into());
+    }
+    let side = (a.rays as f64).sqrt() as u32;
+    check_image(side, side, "--rays")?;
     let params = BuildParams {
         threads: a.threads,
         ..BuildParams::default()
@@ -94,9 +102,8 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     );
     say!("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for spec in &a.scenes {
-        let (name, s) = scene(spec)?;
+        let (name, s) = scene(spec, a.mesh_args)?;
         let tris = &s.triangles;
-        let side = (a.rays as f64).sqrt() as u32;
         let camera = Camera::framing(&s.focus).rays(side, side);
         let random = random_rays(&s.focus, a.rays, 7);
         for &kind in &kinds {

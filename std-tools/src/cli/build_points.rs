@@ -12,7 +12,7 @@ use std::time::Instant;
 /// Arguments of `kdray build-points`.
 #[derive(clap::Args, Debug)]
 pub(crate) struct Args {
-    /// The points (.pts: 12-byte records, formats/RAYS.md).
+    /// The points (.pts: 12-byte records, docs/formats.md).
     points: PathBuf,
     /// Where to write the tree blob.
     #[arg(short, long)]
@@ -26,6 +26,10 @@ pub(crate) struct Args {
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
+    io::check_output(&a.output)?;
+    if a.leaf_size == 0 {
+        return Err("--leaf-size must be at least 1".into());
+    }
     let points: Vec<[f32; 3]> = io::read_records(&a.points, "point")?;
     let params = PointParams {
         leaf_size: a.leaf_size,

@@ -3,18 +3,18 @@
 use super::json::JsonObject;
 use super::progress::with_bar;
 use super::report::{print_stats, stats_json};
-use super::CmdResult;
+use super::{check_threads, CmdResult, MeshArgs};
 use kdray_tools::blob::write_triangle_tree;
 use kdray_tools::builders::{build_monitored, BuildMonitor, BuildParams, BuilderKind};
+use kdray_tools::io;
 use kdray_tools::stats::{tree_stats, CostModel};
-use kdray_tools::{io, mesh};
 use std::path::PathBuf;
 use std::time::Instant;
 
 /// Arguments of `kdray build`.
 #[derive(clap::Args, Debug)]
 pub(crate) struct Args {
-    /// The mesh (.obj).
+    /// The mesh (.obj, .ply, .gltf, .glb).
     mesh: PathBuf,
     /// Where to write the tree blob.
     #[arg(short, long)]
@@ -40,16 +40,15 @@ pub(crate) struct Args {
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    mesh_args: MeshArgs,
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
-    let t = Instant::now();
-    let tris = mesh::load(&a.mesh)?;
-    let load_ms = t.elapsed().as_secs_f64() * 1e3;
+    // Every argument is checked before the mesh is read and built.
+    io::check_output(&a.output)?;
     let kind = BuilderKind::parse(&a.builder)?;
-    if a.threads == Some(0) {
-        return Err("--threads must be at least 1".into());
-    }
+    check_threads(a.threads)?;
     let d = BuildParams::default();
     let params = BuildParams {
         threads: a.threads,
@@ -74,6 +73,9 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         )
         .into());
     }
+    let t = Instant::now();
+    let tris = a.mesh_args.load(&a.mesh)?;
+    let load_ms = t.elapsed().as_secs_f64() * 1e3;
     let monitor = BuildMonitor::new();
     let t = Instant::now();
     let built = with_bar(&monitor, || build_monitored(&tris, kind, &params, &monitor))

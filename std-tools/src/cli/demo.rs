@@ -3,7 +3,7 @@
 //! then rendered, shaded and as a traversal-cost heatmap, into `out/`.
 
 use super::report::print_stats;
-use super::{thread_pool, CmdResult};
+use super::{check_image, plural, thread_pool, CmdResult};
 use kdray_kernel::{closest_hit_brute, Hit};
 use kdray_kernel::{PacketWidth, TriangleTree};
 use kdray_tools::blob::write_triangle_tree;
@@ -41,6 +41,10 @@ impl Default for Args {
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
+    // The folder and the ray count are checked before the work.
+    check_image(a.size, a.size, "--size")?;
+    std::fs::create_dir_all(&a.out_dir)
+        .map_err(|e| format!("{}: cannot create: {e}", a.out_dir.display()))?;
     let scene = teapot_in_stadium();
     say!(
         "built-in scene: teapot in a stadium, {} triangles",
@@ -67,12 +71,12 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let all = t.elapsed().as_secs_f64();
     let hit = hits.iter().filter(|h| h.is_hit()).count();
     say!(
-        "traced {}x{} camera rays ({hit} hit): {:.2} Mrays/s on 1 thread, {:.2} Mrays/s on {} threads",
+        "traced {}x{} camera rays ({hit} hit): {:.2} Mrays/s on 1 thread, {:.2} Mrays/s on {}",
         a.size,
         a.size,
         rays.len() as f64 / one / 1e6,
         rays.len() as f64 / all / 1e6,
-        pool.current_num_threads()
+        plural(pool.current_num_threads(), "thread")
     );
 
     // Brute force over every triangle on a sample: the tree must agree bit
@@ -106,14 +110,14 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     draw(&tree, camera, &pool, &a.out_dir)
 }
 
-/// The picture and the heatmap of the scene, 640x480, on `pool`, written to `dir`.
+/// The picture and the heatmap of the scene, 640x480, on `pool`, written
+/// to `dir` (which exists).
 fn draw(
     tree: &TriangleTree<'_>,
     camera: Camera,
     pool: &rayon::ThreadPool,
     dir: &std::path::Path,
 ) -> CmdResult {
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: cannot create: {e}", dir.display()))?;
     let params = RenderParams::new(camera, 640, 480);
     let t = Instant::now();
     let tracer = TreeTracer {

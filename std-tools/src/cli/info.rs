@@ -20,17 +20,21 @@ pub(crate) struct Args {
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
-    let blob = Blob::read(&a.tree).map_err(|e| format!("{}: {e}", a.tree.display()))?;
+    let blob = match Blob::read(&a.tree) {
+        Ok(b) => b,
+        Err(e) => return fail(a, format!("{}: {e}", a.tree.display())),
+    };
     let t = Instant::now();
-    let tree = blob
-        .tree()
-        .map_err(|e| format!("{}: invalid tree blob: {e}", a.tree.display()))?;
+    let tree = match blob.tree() {
+        Ok(t) => t,
+        Err(e) => return fail(a, format!("{}: invalid tree blob: {e}", a.tree.display())),
+    };
     let validate_ms = t.elapsed().as_secs_f64() * 1e3;
     let stats = tree_stats(&tree, CostModel::from_params(&BuildParams::default()));
     if a.json {
         let j = JsonObject::default()
             .str("tree", &a.tree.display().to_string())
-            .str("valid", "yes")
+            .bool("valid", true)
             .num("validate_ms", validate_ms);
         say!("{}", stats_json(j, &stats).finish());
     } else {
@@ -41,4 +45,17 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         print_stats(&stats);
     }
     Ok(())
+}
+
+/// The error `message`, also as a JSON verdict on stdout under `--json`
+/// (a script reading stdout learns it there, not only from stderr).
+fn fail(a: &Args, message: String) -> CmdResult {
+    if a.json {
+        let j = JsonObject::default()
+            .str("tree", &a.tree.display().to_string())
+            .bool("valid", false)
+            .str("error", &message);
+        say!("{}", j.finish());
+    }
+    Err(message.into())
 }

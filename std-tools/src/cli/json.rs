@@ -27,6 +27,13 @@ impl JsonObject {
         self
     }
 
+    /// A boolean.
+    pub(crate) fn bool(mut self, k: &str, v: bool) -> Self {
+        self.key(k);
+        self.body.push_str(if v { "true" } else { "false" });
+        self
+    }
+
     /// A string, escaped.
     pub(crate) fn str(mut self, k: &str, v: &str) -> Self {
         self.key(k);

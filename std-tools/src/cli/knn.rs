@@ -2,7 +2,7 @@
 //! k nearest neighbours of every query, write a `.knn` file.
 
 use super::json::JsonObject;
-use super::{thread_pool, CmdResult};
+use super::{plural, thread_pool, CmdResult};
 use kdray_kernel::Neighbour;
 use kdray_tools::io;
 use kdray_tools::points::{build_points, knn_all, PointParams};
@@ -12,7 +12,7 @@ use std::time::Instant;
 /// Arguments of `kdray knn`.
 #[derive(clap::Args, Debug)]
 pub(crate) struct Args {
-    /// The points (.pts: 12-byte records, formats/RAYS.md).
+    /// The points (.pts: 12-byte records, docs/formats.md).
     points: PathBuf,
     /// The query points (.pts).
     queries: PathBuf,
@@ -37,12 +37,24 @@ pub(crate) struct Args {
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
-    if a.k == 0 || a.reps == 0 {
-        return Err("-k and --reps must be at least 1".into());
+    io::check_output(&a.output)?;
+    if a.k == 0 || a.reps == 0 || a.leaf_size == 0 {
+        return Err("-k, --reps and --leaf-size must be at least 1".into());
     }
     let pool = thread_pool(a.threads)?;
     let points: Vec<[f32; 3]> = io::read_records(&a.points, "point")?;
     let queries: Vec<[f32; 3]> = io::read_records(&a.queries, "point")?;
+    // Every query has k neighbours only when k <= n: a larger k would only
+    // pad each query's records (and ask for k slots per query).
+    if a.k > points.len() {
+        return Err(format!(
+            "-k {} is more than the {} points of {}",
+            a.k,
+            points.len(),
+            a.points.display()
+        )
+        .into());
+    }
     let params = PointParams {
         leaf_size: a.leaf_size,
         ..PointParams::default()
@@ -51,7 +63,16 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         .len()
         .checked_mul(a.k)
         .ok_or("queries times k overflows")?;
-    let mut out = vec![Neighbour::NONE; len];
+    let mut out = Vec::new();
+    out.try_reserve_exact(len).map_err(|_| {
+        format!(
+            "{} queries x k = {} neighbours ({} bytes) cannot be allocated",
+            queries.len(),
+            a.k,
+            len as f64 * 8.0
+        )
+    })?;
+    out.resize(len, Neighbour::NONE);
     let (mut build_s, mut query_s) = (f64::INFINITY, f64::INFINITY);
     pool.install(|| -> Result<(), String> {
         for _ in 0..a.reps {
@@ -88,12 +109,12 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         say!("{}", j.finish());
     } else {
         say!(
-            "built {} points in {:.1} ms; {} queries, k = {}, on {} threads in {query_s:.3} s: {:.0} queries/s (excluding file I/O)",
+            "built {} points in {:.1} ms; {} queries, k = {}, on {} in {query_s:.3} s: {:.0} queries/s (excluding file I/O)",
             points.len(),
             build_s * 1e3,
             queries.len(),
             a.k,
-            pool.current_num_threads(),
+            plural(pool.current_num_threads(), "thread"),
             qps
         );
         say!("wrote {}", a.output.display());

@@ -17,8 +17,12 @@ mod info;
 mod json;
 mod knn;
 mod progress;
+mod rays;
 mod render;
 mod report;
+#[cfg(unix)]
+#[allow(unsafe_code)] // three C library calls, each with its SAFETY argument
+mod signals;
 mod trace;
 
 use clap::{Parser, Subcommand};
@@ -44,6 +48,9 @@ enum Command {
     BuildPoints(build_points::Args),
     /// Answer the k nearest points of every query in a file.
     Knn(knn::Args),
+    /// Make a ray file: camera rays (row order or packet tiles), random
+    /// rays or shadow rays.
+    Rays(rays::Args),
     /// Render a mesh or tree to PNG: shaded, or a traversal-cost heatmap.
     Render(render::Args),
     /// Build and trace the built-in teapot-in-a-stadium scene (the default).
@@ -58,12 +65,15 @@ type CmdResult = Result<(), Box<dyn std::error::Error>>;
 
 pub(crate) fn main() -> ExitCode {
     let cli = Cli::parse();
+    #[cfg(unix)]
+    signals::install();
     let result = match cli.command {
         Some(Command::Build(a)) => build_tree::run(&a),
         Some(Command::Info(a)) => info::run(&a),
         Some(Command::Trace(a)) => trace::run(&a),
         Some(Command::BuildPoints(a)) => build_points::run(&a),
         Some(Command::Knn(a)) => knn::run(&a),
+        Some(Command::Rays(a)) => rays::run(&a),
         Some(Command::Render(a)) => render::run(&a),
         Some(Command::Demo(a)) => demo::run(&a),
         Some(Command::Bench(a)) => bench::run(&a),
@@ -78,11 +88,83 @@ pub(crate) fn main() -> ExitCode {
     }
 }
 
+/// The most worker threads a command starts: past the cores, threads only
+/// add overhead, and each reserves a stack (100,000 of them exhaust the
+/// address space).
+const MAX_THREADS: usize = 1024;
+
+/// Refuses `--threads 0` and counts past [`MAX_THREADS`].
+fn check_threads(threads: Option<usize>) -> Result<(), String> {
+    match threads {
+        Some(0) => Err("--threads must be at least 1".into()),
+        Some(n) if n > MAX_THREADS => Err(format!(
+            "--threads {n} is more than {MAX_THREADS} (this machine has {} cores)",
+            std::thread::available_parallelism().map_or(1, |n| n.get())
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// A rayon pool of `threads` workers (all cores when `None`).
 fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, Box<dyn std::error::Error>> {
+    check_threads(threads)?;
     let n = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    if n == 0 {
-        return Err("--threads must be at least 1".into());
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build()
+        .map_err(|e| format!("cannot start {}: {e}", plural(n, "thread")).into())
+}
+
+/// `"1 thread"`, `"2 threads"`.
+fn plural(n: usize, what: &str) -> String {
+    if n == 1 {
+        format!("1 {what}")
+    } else {
+        format!("{n} {what}s")
     }
-    Ok(rayon::ThreadPoolBuilder::new().num_threads(n).build()?)
+}
+
+/// The most pixels (or camera rays) an image may have: 2^28, 16384 x 16384,
+/// so the pixels, costs and rays of a picture stay within a few GB.
+const MAX_PIXELS: u64 = 1 << 28;
+
+/// Refuses a `width` x `height` image of no pixels or more than [`MAX_PIXELS`].
+fn check_image(width: u32, height: u32, names: &str) -> Result<(), String> {
+    let pixels = u64::from(width) * u64::from(height);
+    if pixels == 0 {
+        return Err(format!("{names} must be at least 1"));
+    }
+    if pixels > MAX_PIXELS {
+        return Err(format!(
+            "{names}: {width} x {height} is {pixels} pixels, more than the {MAX_PIXELS} (16384 x 16384) kdray makes"
+        ));
+    }
+    Ok(())
+}
+
+/// How the commands that read a mesh read it.
+#[derive(clap::Args, Debug, Default, Clone, Copy)]
+struct MeshArgs {
+    /// Let a glTF's buffer URIs name files outside the glTF's folder
+    /// (absolute paths, `..`); by default they are refused.
+    #[arg(long)]
+    allow_outside_uris: bool,
+}
+
+impl MeshArgs {
+    /// Loads `path`, printing what was skipped (glTF points and lines) as
+    /// warnings on stderr.
+    fn load(
+        self,
+        path: &std::path::Path,
+    ) -> Result<Vec<kdray_kernel::Triangle>, kdray_tools::mesh::MeshError> {
+        let options = kdray_tools::mesh::LoadOptions {
+            allow_outside_uris: self.allow_outside_uris,
+        };
+        let m = kdray_tools::mesh::load_with(path, &options)?;
+        for s in &m.skipped {
+            eprintln!("kdray: warning: {}: {s}", path.display());
+        }
+        Ok(m.triangles)
+    }
 }

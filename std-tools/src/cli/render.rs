@@ -3,13 +3,13 @@
 
 use super::progress::counted_bar;
 use super::trace::parse_width;
-use super::{thread_pool, CmdResult};
+use super::{check_image, plural, thread_pool, CmdResult, MeshArgs};
 use glam::Vec3;
-use kdray_kernel::PacketWidth;
+use kdray_kernel::{Bounds, PacketWidth};
 use kdray_tools::blob::{write_triangle_tree, Blob};
 use kdray_tools::builders::{build, BuildParams, BuilderKind};
 use kdray_tools::camera::Camera;
-use kdray_tools::mesh;
+use kdray_tools::io;
 use kdray_tools::render::{bands, render, render_heatmap, RenderParams, TreeTracer};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -23,21 +23,8 @@ pub(crate) struct Args {
     /// Where to write the PNG.
     #[arg(short, long)]
     output: PathBuf,
-    /// Eye position `x,y,z` (default: framing the whole scene).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    eye: Option<Vec3>,
-    /// The point looked at, `x,y,z` (default: the scene's centre).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    target: Option<Vec3>,
-    /// Vertical field of view in degrees.
-    #[arg(long)]
-    fov: Option<f32>,
-    /// Image width in pixels.
-    #[arg(long, default_value_t = 640)]
-    width: u32,
-    /// Image height in pixels.
-    #[arg(long, default_value_t = 480)]
-    height: u32,
+    #[command(flatten)]
+    view: View,
     /// Render the traversal cost per pixel (nodes visited + triangles
     /// tested, single rays) instead of the shaded picture.
     #[arg(long)]
@@ -49,6 +36,8 @@ pub(crate) struct Args {
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
+    #[command(flatten)]
+    mesh_args: MeshArgs,
 }
 
 fn parse_vec3(s: &str) -> Result<Vec3, String> {
@@ -63,42 +52,86 @@ fn parse_vec3(s: &str) -> Result<Vec3, String> {
     }
 }
 
+/// The camera and image size, for `render` and `rays` alike.
+#[derive(clap::Args, Debug)]
+pub(super) struct View {
+    /// Eye position `x,y,z` (default: framing the whole scene).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    eye: Option<Vec3>,
+    /// The point looked at, `x,y,z` (default: the scene's centre).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    target: Option<Vec3>,
+    /// Vertical field of view in degrees.
+    #[arg(long)]
+    fov: Option<f32>,
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 640)]
+    pub(super) width: u32,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 480)]
+    pub(super) height: u32,
+}
+
+impl View {
+    /// Refuses an image of no pixels or too many, and a field of view
+    /// outside (0, 180) degrees.
+    pub(super) fn check(&self) -> Result<(), String> {
+        check_image(self.width, self.height, "--width and --height")?;
+        match self.fov {
+            Some(f) if !(f > 0.0 && f < 180.0) => {
+                Err(format!("--fov must be between 0 and 180 degrees, not {f}"))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// The camera framing `scene`, with the user's eye, target and field
+    /// of view where given.
+    pub(super) fn camera(&self, scene: &Bounds) -> Camera {
+        let framing = Camera::framing(scene);
+        Camera {
+            eye: self.eye.unwrap_or(framing.eye),
+            target: self.target.unwrap_or(framing.target),
+            fov_deg: self.fov.unwrap_or(framing.fov_deg),
+            ..framing
+        }
+    }
+}
+
 /// A tree blob from `path`: read when it is a `.kdt`, else the mesh
 /// loaded and built with the default builder.
-fn tree_blob(path: &Path) -> Result<Blob, Box<dyn std::error::Error>> {
+pub(super) fn tree_blob(
+    path: &Path,
+    mesh_args: MeshArgs,
+) -> Result<Blob, Box<dyn std::error::Error>> {
     let is_blob = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("kdt"));
     Ok(if is_blob {
         Blob::read(path).map_err(|e| format!("{}: {e}", path.display()))?
     } else {
-        let tris = mesh::load(path)?;
+        let tris = mesh_args.load(path)?;
         let built = build(&tris, BuilderKind::default(), &BuildParams::default())?;
         write_triangle_tree(&built, &tris)?
     })
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
-    if a.width == 0 || a.height == 0 {
-        return Err("--width and --height must be at least 1".into());
-    }
+    // Every argument is checked before the scene is loaded or built.
+    io::check_output(&a.output)?;
+    a.view.check()?;
     let pool = thread_pool(a.threads)?;
-    let blob = tree_blob(&a.input)?;
+    let blob = tree_blob(&a.input, a.mesh_args)?;
     let tree = blob
         .tree()
         .map_err(|e| format!("{}: invalid tree blob: {e}", a.input.display()))?;
     let scene = tree.bounds();
-    let mut camera = Camera::framing(&scene);
-    camera.eye = a.eye.unwrap_or(camera.eye);
-    camera.target = a.target.unwrap_or(camera.target);
-    camera.fov_deg = a.fov.unwrap_or(camera.fov_deg);
-    if !(camera.fov_deg > 0.0 && camera.fov_deg < 180.0) {
-        return Err("--fov must be between 0 and 180 degrees".into());
-    }
-    let params = RenderParams::new(camera, a.width, a.height);
+    let camera = a.view.camera(&scene);
+    let (width, height) = (a.view.width, a.view.height);
+    let params = RenderParams::new(camera, width, height);
     let t = Instant::now();
     let image = if a.heatmap {
-        let bar = counted_bar(u64::from(a.height));
+        let bar = counted_bar(u64::from(height));
         let h = pool.install(|| render_heatmap(&tree, &params, &|| bar.inc(1)));
         bar.finish_and_clear();
         say!(
@@ -109,7 +142,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         );
         h.image
     } else {
-        let bar = counted_bar(bands(a.height, a.packet));
+        let bar = counted_bar(bands(height, a.packet));
         let tracer = TreeTracer {
             tree: &tree,
             width: a.packet,
@@ -121,18 +154,18 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let seconds = t.elapsed().as_secs_f64();
     image.write_png(&a.output)?;
     say!(
-        "rendered {}x{} {} ({}) on {} threads in {:.1} ms: {:.2} Mpixels/s (excluding loading and PNG writing)",
-        a.width,
-        a.height,
+        "rendered {}x{} {} ({}) on {} in {:.1} ms: {:.2} Mpixels/s (excluding loading and PNG writing)",
+        width,
+        height,
         if a.heatmap { "heatmap" } else { "picture" },
         if a.heatmap {
             "single rays, counted".to_string()
         } else {
             format!("packets of {}", a.packet.lanes())
         },
-        pool.current_num_threads(),
+        plural(pool.current_num_threads(), "thread"),
         seconds * 1e3,
-        f64::from(a.width) * f64::from(a.height) / seconds.max(1e-12) / 1e6
+        f64::from(width) * f64::from(height) / seconds.max(1e-12) / 1e6
     );
     say!("wrote {}", a.output.display());
     Ok(())

@@ -1,7 +1,7 @@
 //! `kdray trace TREE RAYS -o HITS`: trace a ray file, write a hit file.
 
 use super::json::JsonObject;
-use super::{thread_pool, CmdResult};
+use super::{plural, thread_pool, CmdResult};
 use kdray_kernel::{Hit, Ray};
 use kdray_tools::blob::Blob;
 use kdray_tools::io;
@@ -14,7 +14,7 @@ use std::time::Instant;
 pub(crate) struct Args {
     /// The tree blob.
     tree: PathBuf,
-    /// The ray file (32-byte records, formats/RAYS.md).
+    /// The ray file (32-byte records, docs/formats.md).
     rays: PathBuf,
     /// Where to write the hit file (16-byte records).
     #[arg(short, long)]
@@ -26,9 +26,9 @@ pub(crate) struct Args {
     #[arg(long)]
     threads: Option<usize>,
     /// Rays traced together: 1 (single rays), 4, 8 or 16 (packets of that
-    /// many consecutive rays: order the file in 2x2 / 4x2 pixel tiles, e.g.
-    /// `primary_tiled.rays`; 16 takes two 4x2 tiles side by side). The hits
-    /// are the same bit for bit.
+    /// many consecutive rays: order the file in pixel tiles, as `kdray rays
+    /// --kind camera-tiled --packet N` does). The hits are the same bit for
+    /// bit.
     #[arg(long, default_value = "1", value_parser = parse_width)]
     packet: PacketWidth,
     /// Print one JSON object instead of the summary.
@@ -44,6 +44,10 @@ pub(crate) struct Args {
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
+    io::check_output(&a.output)?;
+    if a.repeat == 0 {
+        return Err("--repeat must be at least 1".into());
+    }
     let pool = thread_pool(a.threads)?;
     let blob = Blob::read(&a.tree).map_err(|e| format!("{}: {e}", a.tree.display()))?;
     let tree = blob
@@ -56,9 +60,6 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     } else {
         Query::Closest
     };
-    if a.repeat == 0 {
-        return Err("--repeat must be at least 1".into());
-    }
     // The best of `repeat` passes, as the anchors report theirs.
     let mut seconds = f64::INFINITY;
     for _ in 0..a.repeat {
@@ -83,7 +84,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let hit_count = hits.iter().filter(|h| h.prim != kdray_kernel::MISS).count();
     let mrays = rays.len() as f64 / seconds.max(1e-12) / 1e6;
     if a.json {
-        let j = JsonObject::default()
+        let mut j = JsonObject::default()
             .num("rays", rays.len() as f64)
             .num("hits", hit_count as f64)
             .num("threads", pool.current_num_threads() as f64)
@@ -96,14 +97,17 @@ pub(crate) fn run(a: &Args) -> CmdResult {
                 "timing",
                 "seconds: the best pass, excluding reading the tree and rays and writing the hits",
             );
+        if let Some((nodes, tris)) = per_ray {
+            j = j.num("nodes_per_ray", nodes).num("triangles_per_ray", tris);
+        }
         say!("{}", j.finish());
     } else {
         say!(
-            "traced {} rays ({} {}) on {} threads, packets of {}, best of {} in {seconds:.3} s: {mrays:.2} Mrays/s (excluding file I/O)",
+            "traced {} rays ({} {}) on {}, packets of {}, best of {} in {seconds:.3} s: {mrays:.2} Mrays/s (excluding file I/O)",
             rays.len(),
             hit_count,
             if a.any_hit { "occluded" } else { "hit" },
-            pool.current_num_threads(),
+            plural(pool.current_num_threads(), "thread"),
             a.packet.lanes(),
             a.repeat,
         );

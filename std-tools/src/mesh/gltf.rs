@@ -4,32 +4,42 @@
 //! `gltf` parses and validates the JSON; the accessor bytes are read here
 //! so every range is checked and a bad one is named.
 
-use super::{fan, MeshError};
+use super::{fan, LoadOptions, MeshError};
 use base64::Engine as _;
 use glam::{Mat4, Vec3};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 use gltf::Accessor;
 use kdray_kernel::Triangle;
-use std::path::Path;
+use std::path::{Component, Path, PathBuf};
 
-/// Loads the triangles of a glTF 2.0 file (`.gltf` or `.glb`). Points and
-/// lines are skipped; strips and fans are unrolled; non-indexed
-/// primitives use their vertices in order.
+/// Loads the triangles of a glTF 2.0 file (`.gltf` or `.glb`) with the
+/// default [`LoadOptions`]. Points and lines are skipped
+/// ([`super::load_with`] reports them); strips and fans are unrolled;
+/// non-indexed primitives use their vertices in order.
 ///
 /// # Errors
 /// A [`MeshError`] naming the file and the buffer, node, mesh, primitive or
-/// accessor at fault: malformed JSON (with its line), a missing buffer, an
-/// accessor past the end of its buffer view, an index out of range, a node
-/// met twice in the hierarchy.
+/// accessor at fault: malformed JSON (with its line), a missing buffer or
+/// one outside the glTF's folder, an accessor past the end of its buffer
+/// view, an index out of range, a node met twice in the hierarchy.
 pub fn load_gltf(path: &Path) -> Result<Vec<Triangle>, MeshError> {
+    read(path, &LoadOptions::default(), &mut Vec::new())
+}
+
+/// [`load_gltf`] with `options`, adding what is skipped to `skipped`.
+pub(super) fn read(
+    path: &Path,
+    options: &LoadOptions,
+    skipped: &mut Vec<String>,
+) -> Result<Vec<Triangle>, MeshError> {
     let err = |msg: String| MeshError::new(path, None, msg);
     let bytes = std::fs::read(path).map_err(|e| err(format!("cannot open: {e}")))?;
     let g = gltf::Gltf::from_slice(&bytes).map_err(|e| err(format!("malformed glTF: {e}")))?;
     let buffers = g
         .document
         .buffers()
-        .map(|b| load_buffer(path, &b, g.blob.as_deref()))
+        .map(|b| load_buffer(path, &b, g.blob.as_deref(), options))
         .collect::<Result<Vec<_>, _>>()?;
     let scene = g
         .document
@@ -54,6 +64,15 @@ pub fn load_gltf(path: &Path) -> Result<Vec<Triangle>, MeshError> {
         if let Some(mesh) = node.mesh() {
             for prim in mesh.primitives() {
                 let at = format!("mesh {} primitive {}", mesh.index(), prim.index());
+                if let Some(kind) = not_triangles(prim.mode()) {
+                    let n = prim
+                        .get(&gltf::Semantic::Positions)
+                        .map_or(0, |a| a.count());
+                    skipped.push(format!(
+                        "{at}: a {kind} primitive ({n} vertices) skipped: only triangles are traced"
+                    ));
+                    continue;
+                }
                 add_primitive(path, &at, &prim, &buffers, m, &mut tris)?;
             }
         }
@@ -73,12 +92,81 @@ fn push_reversed<'a>(
     stack[start..].reverse();
 }
 
+/// The glTF name of a primitive mode that is not triangles.
+fn not_triangles(mode: Mode) -> Option<&'static str> {
+    Some(match mode {
+        Mode::Points => "POINTS",
+        Mode::Lines => "LINES",
+        Mode::LineLoop => "LINE_LOOP",
+        Mode::LineStrip => "LINE_STRIP",
+        Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan => return None,
+    })
+}
+
+/// The file a relative buffer URI names, beside the glTF: percent-decoded
+/// (RFC 3986), and unless `allow_outside` inside the glTF's folder (no
+/// absolute path, no `..`, no symlink leading out of it).
+fn buffer_file(gltf: &Path, uri: &str, allow_outside: bool) -> Result<PathBuf, String> {
+    let decoded = percent_decode(uri)
+        .ok_or_else(|| format!("URI {uri:?} is not valid percent-encoded UTF-8"))?;
+    if decoded.contains("://") || decoded.starts_with("file:") {
+        return Err(format!(
+            "URI {uri:?}: only relative file paths and data: URIs are read"
+        ));
+    }
+    let dir = match gltf.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let file = dir.join(&decoded);
+    if allow_outside {
+        return Ok(file);
+    }
+    let refuse = || {
+        format!(
+            "URI {uri:?} points outside the glTF's folder {} (pass --allow-outside-uris to read it)",
+            dir.display()
+        )
+    };
+    let rel = Path::new(&decoded);
+    if rel.is_absolute()
+        || rel
+            .components()
+            .any(|c| !matches!(c, Component::Normal(_) | Component::CurDir))
+    {
+        return Err(refuse());
+    }
+    // A symlink inside the folder may still lead out of it.
+    if let (Ok(real_dir), Ok(real)) = (std::fs::canonicalize(dir), std::fs::canonicalize(&file)) {
+        if !real.starts_with(real_dir) {
+            return Err(refuse());
+        }
+    }
+    Ok(file)
+}
+
+/// `%XX` escapes decoded; `None` for a bad escape or non-UTF-8 bytes.
+fn percent_decode(s: &str) -> Option<String> {
+    let mut out = Vec::with_capacity(s.len());
+    let mut bytes = s.bytes();
+    while let Some(b) = bytes.next() {
+        if b == b'%' {
+            let hex = [bytes.next()?, bytes.next()?];
+            out.push(u8::from_str_radix(std::str::from_utf8(&hex).ok()?, 16).ok()?);
+        } else {
+            out.push(b);
+        }
+    }
+    String::from_utf8(out).ok()
+}
+
 /// The bytes of buffer `b`: the GLB's BIN chunk, a `data:` URI, or a file
-/// next to the glTF.
+/// in the glTF's folder.
 fn load_buffer(
     path: &Path,
     b: &gltf::Buffer<'_>,
     blob: Option<&[u8]>,
+    options: &LoadOptions,
 ) -> Result<Vec<u8>, MeshError> {
     let err = |msg: String| MeshError::new(path, None, format!("buffer {}: {msg}", b.index()));
     let data = match b.source() {
@@ -94,7 +182,7 @@ fn load_buffer(
                 .map_err(|e| err(format!("bad base64 in data URI: {e}")))?
         }
         gltf::buffer::Source::Uri(uri) => {
-            let file = path.parent().unwrap_or(Path::new("")).join(uri);
+            let file = buffer_file(path, uri, options.allow_outside_uris).map_err(&err)?;
             std::fs::read(&file).map_err(|e| err(format!("cannot read {}: {e}", file.display())))?
         }
     };
@@ -118,12 +206,6 @@ fn add_primitive(
     tris: &mut Vec<Triangle>,
 ) -> Result<(), MeshError> {
     let err = |msg: String| MeshError::new(path, None, format!("{at}: {msg}"));
-    if matches!(
-        prim.mode(),
-        Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip
-    ) {
-        return Ok(());
-    }
     let pos = prim
         .get(&gltf::Semantic::Positions)
         .ok_or_else(|| err("no POSITION attribute".into()))?;

@@ -1,5 +1,7 @@
-//! Mesh loaders: a file in, triangles out, numbered as `formats/RAYS.md`
+//! Mesh loaders: a file in, triangles out, numbered as `docs/formats.md`
 //! says (faces in file order, an n-gon fanned as `(v0, v[i], v[i+1])`).
+//! A face of fewer than three corners and a mesh of no triangles are
+//! errors; glTF point and line primitives are skipped and reported.
 
 mod gltf;
 mod obj;
@@ -46,12 +48,43 @@ impl fmt::Display for MeshError {
 
 impl std::error::Error for MeshError {}
 
+/// How [`load_with`] reads a mesh.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Let a glTF's buffer URIs name files outside the glTF's own folder
+    /// (absolute paths, `..`). Off by default: a downloaded model must not
+    /// read `/etc/passwd` into a tree.
+    pub allow_outside_uris: bool,
+}
+
+/// A loaded mesh.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    /// The triangles, in the documented order.
+    pub triangles: Vec<Triangle>,
+    /// What the file held that is not triangles and was skipped, one line
+    /// each ("mesh 0 primitive 1: a POINTS primitive (4 vertices) skipped").
+    pub skipped: Vec<String>,
+}
+
+/// Loads a mesh with the default [`LoadOptions`], choosing the format by
+/// the file extension; anything skipped (see [`Mesh::skipped`]) is dropped.
+///
+/// # Errors
+/// As [`load_with`].
+pub fn load(path: &Path) -> Result<Vec<Triangle>, MeshError> {
+    load_with(path, &LoadOptions::default()).map(|m| m.triangles)
+}
+
 /// Loads a mesh, choosing the format by the file extension.
 ///
 /// # Errors
 /// A [`MeshError`] naming the file (and line) for a missing, unreadable,
-/// malformed or unsupported file, or a triangle with a non-finite vertex.
-pub fn load(path: &Path) -> Result<Vec<Triangle>, MeshError> {
+/// malformed or unsupported file, a face of fewer than three corners, a
+/// file with no triangles, a glTF buffer outside the glTF's folder (unless
+/// allowed), or a triangle with a non-finite vertex.
+pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Mesh, MeshError> {
+    let mut skipped = Vec::new();
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -60,7 +93,7 @@ pub fn load(path: &Path) -> Result<Vec<Triangle>, MeshError> {
     let tris = match ext.as_str() {
         "obj" => load_obj(path)?,
         "ply" => load_ply(path)?,
-        "gltf" | "glb" => load_gltf(path)?,
+        "gltf" | "glb" => gltf::read(path, options, &mut skipped)?,
         _ => {
             return Err(MeshError::new(
                 path,
@@ -69,8 +102,14 @@ pub fn load(path: &Path) -> Result<Vec<Triangle>, MeshError> {
             ))
         }
     };
+    if tris.is_empty() {
+        return Err(MeshError::new(path, None, "the mesh has no triangles"));
+    }
     check_finite(path, &tris)?;
-    Ok(tris)
+    Ok(Mesh {
+        triangles: tris,
+        skipped,
+    })
 }
 
 /// Calls `emit` with the triangles of polygon `poly` fanned from its first

@@ -2,8 +2,7 @@
 
 use super::MeshError;
 use kdray_kernel::Triangle;
-use std::fs::File;
-use std::io::{BufRead, BufReader, Read};
+use std::io::{BufRead, Read};
 use std::path::Path;
 
 /// A reader that hands out at most one line per `fill_buf`, counting the
@@ -45,13 +44,36 @@ impl<R: BufRead> BufRead for LineCounting<R> {
 
     fn consume(&mut self, amt: usize) {
         if let Ok(buf) = self.inner.fill_buf() {
-            self.lines += buf[..amt.min(buf.len())]
-                .iter()
-                .filter(|&&b| b == b'\n')
-                .count();
+            let used = &buf[..amt.min(buf.len())];
+            self.lines += used.iter().filter(|&&b| b == b'\n').count();
+            if let Some(&last) = used.last() {
+                self.mid_line = last != b'\n';
+            }
         }
         self.inner.consume(amt);
     }
+}
+
+/// Refuses a face (`f` line) of fewer than three corners, which `tobj`
+/// would drop silently, naming its line.
+fn check_faces(path: &Path, text: &[u8]) -> Result<(), MeshError> {
+    for (i, line) in text.split(|&b| b == b'\n').enumerate() {
+        let mut words = line
+            .split(|b| b.is_ascii_whitespace())
+            .filter(|w| !w.is_empty());
+        if words.next() != Some(b"f") {
+            continue;
+        }
+        let corners = words.count();
+        if corners < 3 {
+            return Err(MeshError::new(
+                path,
+                Some(i + 1),
+                format!("a face needs at least 3 corners, this one has {corners}"),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Loads the triangles of an OBJ file: every face of every object, in file
@@ -59,12 +81,14 @@ impl<R: BufRead> BufRead for LineCounting<R> {
 ///
 /// # Errors
 /// A [`MeshError`] for a missing or unreadable file, or a malformed line
-/// (with its number).
+/// (with its number): a bad number, a vertex cut short, a face of fewer
+/// than three corners.
 pub fn load_obj(path: &Path) -> Result<Vec<Triangle>, MeshError> {
-    let file =
-        File::open(path).map_err(|e| MeshError::new(path, None, format!("cannot open: {e}")))?;
+    let text =
+        std::fs::read(path).map_err(|e| MeshError::new(path, None, format!("cannot open: {e}")))?;
+    check_faces(path, &text)?;
     let mut reader = LineCounting {
-        inner: BufReader::new(file),
+        inner: text.as_slice(),
         lines: 0,
         mid_line: false,
     };

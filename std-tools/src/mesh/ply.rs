@@ -230,6 +230,12 @@ fn parse_ply(path: &Path, bytes: &[u8]) -> Result<Vec<Triangle>, MeshError> {
     if !saw_vertices {
         return Err(err(None, "no vertex element".into()));
     }
+    if let Some((line, what)) = body.rest() {
+        return Err(err(
+            line,
+            format!("{what} after the last element the header declares"),
+        ));
+    }
     Ok(tris)
 }
 
@@ -329,6 +335,26 @@ impl<'a> Body<'a> {
                 Some(Some(*first_line + i))
             }
             Body::Binary { .. } => Some(None),
+        }
+    }
+
+    /// What is left after the last element, if anything: the line of the
+    /// first non-blank ASCII line, or the count of binary bytes.
+    fn rest(&mut self) -> Option<(Option<usize>, String)> {
+        match self {
+            Body::Ascii {
+                lines, first_line, ..
+            } => {
+                let (i, l) = lines.find(|(_, l)| !l.trim().is_empty())?;
+                Some((
+                    Some(*first_line + i),
+                    format!("unexpected data {:?}", l.trim()),
+                ))
+            }
+            Body::Binary { bytes, at, .. } => {
+                let left = bytes.len().saturating_sub(*at);
+                (left > 0).then(|| (None, format!("{left} bytes of unexpected data")))
+            }
         }
     }
 

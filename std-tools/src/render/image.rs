@@ -1,7 +1,6 @@
 //! An 8-bit RGB image and its PNG file.
 
-use std::fs::File;
-use std::io::BufWriter;
+use crate::io::Output;
 use std::path::Path;
 
 /// An 8-bit sRGB image, row 0 at the top.
@@ -40,20 +39,22 @@ impl Image {
         }
     }
 
-    /// Writes the image as an 8-bit RGB PNG.
+    /// Writes the image as an 8-bit RGB PNG, as an [`Output`] (a failed
+    /// write leaves the previous picture in place).
     ///
     /// # Errors
     /// An I/O or encoding error, naming the file.
     pub fn write_png(&self, path: &Path) -> Result<(), String> {
         let fail = |e: &dyn std::fmt::Display| format!("{}: cannot write PNG: {e}", path.display());
-        let file = File::create(path).map_err(|e| fail(&e))?;
-        let mut enc = png::Encoder::new(BufWriter::new(file), self.width, self.height);
+        let mut out = Output::create(path).map_err(|e| e.to_string())?;
+        let mut enc = png::Encoder::new(&mut out, self.width, self.height);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
         let mut writer = enc.write_header().map_err(|e| fail(&e))?;
         writer
             .write_image_data(self.pixels.as_flattened())
             .map_err(|e| fail(&e))?;
-        writer.finish().map_err(|e| fail(&e))
+        writer.finish().map_err(|e| fail(&e))?;
+        out.commit().map_err(|e| e.to_string())
     }
 }

@@ -126,6 +126,38 @@ fn shade_tile(tracer: &impl Tracer, p: &RenderParams, coords: &[[u32; 2]], out: 
     }
 }
 
+/// Appends the pixels of the `tw` x `rows` tile whose top left is `[x0,
+/// y0]`, row by row, cut at the image's right edge `width`.
+fn tile_pixels(width: u32, [x0, y0]: [u32; 2], (tw, rows): (u32, u32), out: &mut Vec<[u32; 2]>) {
+    for y in y0..y0 + rows {
+        out.extend((x0..(x0 + tw).min(width)).map(|x| [x, y]));
+    }
+}
+
+/// Every pixel of a `width` x `height` image in the order the renderer
+/// traces them: tile by tile (`tile` pixels, smaller at the right and
+/// bottom edges), left to right, bands of tile rows top to bottom, each
+/// tile row by row. A ray file in this order traces as one packet per tile.
+#[must_use]
+pub fn tiled_pixels(width: u32, height: u32, (tw, th): (u32, u32)) -> Vec<[u32; 2]> {
+    let mut out = Vec::with_capacity(width as usize * height as usize);
+    for y0 in (0..height).step_by(th.max(1) as usize) {
+        let rows = th.min(height - y0);
+        for x0 in (0..width).step_by(tw.max(1) as usize) {
+            tile_pixels(width, [x0, y0], (tw, rows), &mut out);
+        }
+    }
+    out
+}
+
+/// The shadow ray `render` traces from where `ray` hit (`hit`, a triangle
+/// of `tris`) to the light of `params`, or `None` for a miss or a surface
+/// facing away from the light.
+#[must_use]
+pub fn shadow_ray(tris: &[Triangle], ray: &Ray, hit: &Hit, params: &RenderParams) -> Option<Ray> {
+    Surface::at(tris, ray, hit, params)?.shadow
+}
+
 /// A visible surface point.
 struct Surface {
     /// `|cos|` of the angle between the geometric normal and the view ray.
@@ -187,9 +219,7 @@ fn in_tiles<T: Copy + Default + Send>(
             let mut values = vec![T::default(); (tw * th) as usize];
             for x0 in (0..width).step_by(tw as usize) {
                 coords.clear();
-                for y in y0..y0 + rows_here {
-                    coords.extend((x0..(x0 + tw).min(width)).map(|x| [x, y]));
-                }
+                tile_pixels(width, [x0, y0], (tw, rows_here), &mut coords);
                 let values = &mut values[..coords.len()];
                 per_tile(&coords, values);
                 for (&[x, y], &v) in coords.iter().zip(values.iter()) {

@@ -1,0 +1,107 @@
+//! `kdray rays SCENE -o OUT.rays --kind KIND`: a ray file to try the other
+//! commands on (`docs/formats.md`): camera rays in row order or in packet
+//! tiles, random rays through the scene, or the shadow rays of a render.
+
+use super::render::{tree_blob, View};
+use super::trace::parse_width;
+use super::{CmdResult, MeshArgs, MAX_PIXELS};
+use kdray_kernel::{Hit, PacketWidth, Ray};
+use kdray_tools::camera::random_rays;
+use kdray_tools::io;
+use kdray_tools::render::{shadow_ray, tile_size, tiled_pixels, RenderParams};
+use std::path::PathBuf;
+
+/// Which rays `kdray rays` makes.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    /// One ray per pixel through `render`'s camera, row by row.
+    Camera,
+    /// The same rays in packet tiles (`--packet`), for `trace --packet`.
+    CameraTiled,
+    /// `--count` rays from uniform points in the scene's box in uniform
+    /// directions (the incoherent case).
+    Random,
+    /// From each camera ray's hit towards `render`'s light, for
+    /// `trace --any-hit` (surfaces facing away from the light get none).
+    Shadow,
+}
+
+/// Arguments of `kdray rays`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct Args {
+    /// A mesh (.obj, .ply, .gltf, .glb) or a tree blob (.kdt).
+    scene: PathBuf,
+    /// Where to write the rays (32-byte records, docs/formats.md).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// What rays.
+    #[arg(long, value_enum, default_value = "camera")]
+    kind: Kind,
+    /// The camera (camera, camera-tiled, shadow), framing the scene as
+    /// `render` does.
+    #[command(flatten)]
+    view: View,
+    /// camera-tiled: the packet width the tiles are for: 4 (2x2 pixels),
+    /// 8 (4x2) or 16 (4x4), as `render` traces them.
+    #[arg(long, default_value = "8", value_parser = parse_width)]
+    packet: PacketWidth,
+    /// random: how many rays.
+    #[arg(long, default_value_t = 262_144)]
+    count: usize,
+    /// random: the seed (the same seed, the same rays).
+    #[arg(long, default_value_t = 7)]
+    seed: u64,
+    #[command(flatten)]
+    mesh_args: MeshArgs,
+}
+
+pub(crate) fn run(a: &Args) -> CmdResult {
+    io::check_output(&a.output)?;
+    a.view.check()?;
+    if a.count == 0 || a.count as u64 > MAX_PIXELS {
+        return Err(format!(
+            "--count must be between 1 and {MAX_PIXELS}, not {}",
+            a.count
+        )
+        .into());
+    }
+    let blob = tree_blob(&a.scene, a.mesh_args)?;
+    let tree = blob
+        .tree()
+        .map_err(|e| format!("{}: invalid tree blob: {e}", a.scene.display()))?;
+    let scene = tree.bounds();
+    let camera = a.view.camera(&scene);
+    let (w, h) = (a.view.width, a.view.height);
+    let rays: Vec<Ray> = match a.kind {
+        Kind::Camera => camera.rays(w, h),
+        Kind::CameraTiled => tiled_pixels(w, h, tile_size(a.packet))
+            .into_iter()
+            .map(|[x, y]| camera.ray(x, y, w, h))
+            .collect(),
+        Kind::Random => random_rays(&scene, a.count, a.seed),
+        Kind::Shadow => {
+            let params = RenderParams::new(camera, w, h);
+            let primary = camera.rays(w, h);
+            let mut hits = vec![Hit::MISS; primary.len()];
+            tree.closest_hits_with(PacketWidth::One, &primary, &mut hits);
+            primary
+                .iter()
+                .zip(&hits)
+                .filter_map(|(r, hit)| shadow_ray(tree.triangles(), r, hit, &params))
+                .collect()
+        }
+    };
+    io::write_records(&a.output, &rays)?;
+    say!(
+        "wrote {} {} rays to {}",
+        rays.len(),
+        match a.kind {
+            Kind::Camera => "camera",
+            Kind::CameraTiled => "tiled camera",
+            Kind::Random => "random",
+            Kind::Shadow => "shadow",
+        },
+        a.output.display()
+    );
+    Ok(())
+}

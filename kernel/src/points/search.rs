@@ -23,13 +23,17 @@ impl<const D: usize, S: Scalar> PointTreeN<'_, D, S> {
     ///
     /// The stack holds at most one far child per level, so [`MAX_DEPTH`]
     /// entries suffice for a validated tree; for an unvalidated one a full
-    /// stack drops the far child (a wrong answer, never a panic).
+    /// stack drops the far child (a wrong answer, never a panic). In a
+    /// tree each node is entered at most once per query, so the walk stops
+    /// after as many node visits as there are nodes: a blob whose children
+    /// loop (loaded unchecked) ends the query, never hangs it.
     #[inline(always)]
     pub(crate) fn search<A: Accumulator<S>>(&self, q: &[S; D], acc: &mut A) {
         // (far child, lower bound on its points' squared distances)
         let mut stack = [(0u32, S::ZERO); MAX_DEPTH as usize];
         let mut len = 0usize;
         let mut node_idx = 0u32;
+        let mut visits_left = self.nodes.len();
         let Some(root) = self.bounds.first() else {
             return;
         };
@@ -50,6 +54,10 @@ impl<const D: usize, S: Scalar> PointTreeN<'_, D, S> {
                 ) else {
                     break None;
                 };
+                if visits_left == 0 {
+                    return;
+                }
+                visits_left -= 1;
                 if node.is_leaf() {
                     break Some(node);
                 }

@@ -22,8 +22,8 @@
 //! with is refused by its shape record ([`BlobError::WrongDimension`],
 //! [`BlobError::WrongScalar`]).
 
+use super::{walk_layout, Sections, WriteError, KIND_POINTS};
 use super::{wire, BlobError, Bounds, Header, PointNode, PointNodeKind, PointTreeN, Scalar};
-use super::{Sections, WriteError, KIND_POINTS, MAX_DEPTH};
 
 /// A point tree's sections after the header, in blob order: what
 /// [`PointTreeN::from_bytes`] reads and [`PointTreeN::write_parts_to`]
@@ -337,29 +337,14 @@ impl<'a, const D: usize, S: Scalar> PointTreeN<'a, D, S> {
             Some(root) if !box_is_valid(root) => return Err(BlobError::BadNodeBounds { node: 0 }),
             Some(_) => {}
         }
-        // (node, depth); a pending above child per level, plus the one popped.
-        let mut stack = [(0u32, 0u32); MAX_DEPTH as usize + 2];
-        let mut len = 1;
-        let mut next_pair = 1usize;
         let mut next_run = 0usize;
-        let mut max_depth = 0;
-        while len > 0 {
-            len -= 1;
-            let (i, depth) = stack[len];
-            if depth > MAX_DEPTH {
-                return Err(BlobError::TooDeep {
-                    node: i,
-                    depth,
-                    max: MAX_DEPTH,
-                });
-            }
-            max_depth = max_depth.max(depth);
+        let max_depth = walk_layout(total, |i| {
             let (Some(&node), Some(own), Some(&split)) = (
                 self.nodes.get(i as usize),
                 self.bounds.get(i as usize),
                 self.splits.get(i as usize),
             ) else {
-                // Unreachable: pairs are range-checked before they are pushed.
+                // Unreachable: the walk range-checks pairs before it visits them.
                 return Err(BlobError::NoNodes);
             };
             match node.kind() {
@@ -374,19 +359,12 @@ impl<'a, const D: usize, S: Scalar> PointTreeN<'a, D, S> {
                     if !split.is_finite() {
                         return Err(BlobError::NonFiniteSplit { node: i });
                     }
-                    if child as usize != next_pair || next_pair + 1 >= total {
-                        return Err(BlobError::BadChild {
-                            node: i,
-                            child,
-                            expected: shown(next_pair),
-                        });
-                    }
-                    next_pair += 2;
                     let a = axis as usize;
                     // Below child's points at or below the split plane,
                     // above child's at or above it: the queries' plane
-                    // bound relies on it.
-                    for (c, below) in [(child, true), (child + 1, false)] {
+                    // bound relies on it. (The walk checks the pair's
+                    // indices after this; a bad one reads no box here.)
+                    for (c, below) in [(child, true), (child.wrapping_add(1), false)] {
                         let ok = self.bounds.get(c as usize).is_some_and(|b| {
                             let side = if below {
                                 b[1][a] <= split
@@ -395,33 +373,19 @@ impl<'a, const D: usize, S: Scalar> PointTreeN<'a, D, S> {
                             };
                             box_is_valid(b) && nests(b, own) && side
                         });
-                        if !ok {
+                        if !ok && (c as usize) < total {
                             return Err(BlobError::BadNodeBounds { node: c });
                         }
                     }
-                    if len + 2 > stack.len() {
-                        return Err(BlobError::TooDeep {
-                            node: i,
-                            depth: depth + 1,
-                            max: MAX_DEPTH,
-                        });
-                    }
-                    stack[len] = (child + 1, depth + 1);
-                    stack[len + 1] = (child, depth + 1);
-                    len += 2;
+                    Ok(Some(child))
                 }
                 PointNodeKind::Leaf { offset, count } => {
                     self.check_leaf(i, offset, count, next_run, own)?;
                     next_run += count as usize;
+                    Ok(None)
                 }
             }
-        }
-        if next_pair != total {
-            return Err(BlobError::UnreachableNodes {
-                reached: shown(next_pair),
-                total: shown(total),
-            });
-        }
+        })?;
         if next_run != self.len() {
             return Err(BlobError::LeafOutOfOrder {
                 node: shown(total),

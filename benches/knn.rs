@@ -45,6 +45,24 @@ fn sets<const D: usize>(n: usize, seed: u64) -> Vec<(&'static str, Vec<[f32; D]>
     ]
 }
 
+/// One pass of kiddo over `qs`: `nearest_one` for k = 1, else `nearest_n`
+/// (with one scratch buffer for the pass, as a caller would keep).
+fn kiddo_pass<const D: usize>(kd: &ImmutableKdTree<f32, D>, qs: &[[f32; D]], k: usize) {
+    let Some(kk) = NonZeroUsize::new(k) else {
+        return;
+    };
+    let mut scratch = kd.create_scratch::<SquaredEuclidean<f32>>();
+    for q in qs {
+        if k == 1 {
+            let r = kd.query(q).nearest_one::<SquaredEuclidean<f32>>();
+            black_box(r.execute());
+        } else {
+            let r = kd.query(q).nearest_n::<SquaredEuclidean<f32>>(kk);
+            black_box(r.with_scratch(&mut scratch).execute().len());
+        }
+    }
+}
+
 fn bench_dim<const D: usize>(c: &mut Criterion) {
     let n: usize = std::env::var("KDRAY_BENCH_N")
         .ok()
@@ -90,20 +108,8 @@ fn bench_dim<const D: usize>(c: &mut Criterion) {
                 })
             });
             let kd = ImmutableKdTree::<f32, D>::new_from_slice(pts).unwrap();
-            let kk = NonZeroUsize::new(k).unwrap();
-            let mut scratch = kd.create_scratch::<SquaredEuclidean<f32>>();
             g.bench_function(BenchmarkId::new("kiddo", name), |b| {
-                b.iter(|| {
-                    for q in qs {
-                        if k == 1 {
-                            let r = kd.query(q).nearest_one::<SquaredEuclidean<f32>>();
-                            black_box(r.execute());
-                        } else {
-                            let r = kd.query(q).nearest_n::<SquaredEuclidean<f32>>(kk);
-                            black_box(r.with_scratch(&mut scratch).execute().len());
-                        }
-                    }
-                })
+                b.iter(|| kiddo_pass(&kd, qs, k))
             });
         }
         g.finish();
@@ -153,9 +159,7 @@ fn interleaved<const D: usize>(rounds: usize) {
         let built = build_points(pts, &params).unwrap();
         let tree = built.view().unwrap();
         let kd = ImmutableKdTree::<f32, D>::new_from_slice(pts).unwrap();
-        let mut scratch = kd.create_scratch::<SquaredEuclidean<f32>>();
         for k in [1usize, 10] {
-            let kk = NonZeroUsize::new(k).unwrap();
             let mut out = vec![Neighbour::NONE; k];
             let (mut tk, mut td) = (f64::INFINITY, f64::INFINITY);
             for _ in 0..rounds {
@@ -167,24 +171,11 @@ fn interleaved<const D: usize>(rounds: usize) {
                     },
                     &mut tk,
                 );
-                best(
-                    &mut || {
-                        for q in qs {
-                            if k == 1 {
-                                let r = kd.query(q).nearest_one::<SquaredEuclidean<f32>>();
-                                black_box(r.execute());
-                            } else {
-                                let r = kd.query(q).nearest_n::<SquaredEuclidean<f32>>(kk);
-                                black_box(r.with_scratch(&mut scratch).execute().len());
-                            }
-                        }
-                    },
-                    &mut td,
-                );
+                best(&mut || kiddo_pass(&kd, qs, k), &mut td);
             }
-            let qps = |t: f64| qs.len() as f64 / t / 1e3;
+            let qps = |t: f64| qs.len() as f64 / t;
             println!(
-                "D{D} {name} k={k}: kdray {:.0} kq/s, kiddo {:.0} kq/s, {:.2}x",
+                "D{D} {name} k={k}: kdray {:.0} q/s, kiddo {:.0} q/s, {:.2}x",
                 qps(tk),
                 qps(td),
                 td / tk

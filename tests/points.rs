@@ -1,74 +1,121 @@
-//! Point trees against brute force (bit for bit, ties included) on the
-//! sets the issue names, and hostile point blobs.
+//! Point trees against brute force (bit for bit, ties included) in every
+//! dimension tested, f32 and f64, on the sets the issue names (uniform,
+//! clustered, duplicate-heavy, all equal, on a line, on a plane), with
+//! queries near and far outside; large k; and hostile point blobs.
 
 use kdray::kernel::wire::{blob_checksum, CHECKSUM_OFFSET, HEADER_LEN};
-use kdray::kernel::{knn_brute, nearest_brute, within_brute, BlobError, Neighbour, PointTree};
+use kdray::kernel::{
+    distance2, knn_brute, nearest_brute, within_brute, BlobError, Neighbour, PointTree, PointTreeN,
+    Scalar, WriteError,
+};
 use kdray::tools::blob::{write_point_tree, Blob};
 use kdray::tools::points::{build_points, knn_all, PointParams};
 use kdray::tools::rng::Rng;
 use proptest::prelude::*;
 
-/// The kinds of point set: uniform, clustered, duplicate-heavy (piles,
-/// lattice), all on a line, all on a plane.
-const KINDS: usize = 5;
+/// The test's coordinates, made from f64.
+trait Coord: Scalar {
+    fn of(x: f64) -> Self;
+}
+impl Coord for f32 {
+    fn of(x: f64) -> Self {
+        x as f32
+    }
+}
+impl Coord for f64 {
+    fn of(x: f64) -> Self {
+        x
+    }
+}
 
-fn point_set(kind: usize, n: usize, seed: u64) -> Vec<[f32; 3]> {
+/// A uniform f64 in [0, 1) with all 53 bits (f32 sets round it).
+fn unit(r: &mut Rng) -> f64 {
+    (r.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// The kinds of point set: uniform, clustered, duplicate-heavy (piles,
+/// lattice), all on a line, all on a plane (2-D in D dimensions), all
+/// equal.
+const KINDS: usize = 6;
+
+fn point_set<const D: usize, S: Coord>(kind: usize, n: usize, seed: u64) -> Vec<[S; D]> {
     let mut r = Rng::new(seed);
-    let centres: Vec<[f32; 3]> = (0..4).map(|_| [r.f32(), r.f32(), r.f32()]).collect();
+    let centres: Vec<[f64; D]> = (0..4)
+        .map(|_| std::array::from_fn(|_| unit(&mut r)))
+        .collect();
+    let dir: [f64; D] = std::array::from_fn(|a| 1.0 / (a + 1) as f64);
     (0..n)
-        .map(|i| match kind {
-            0 => [r.f32(), r.f32(), r.f32()],
-            1 => {
-                let c = centres[i % centres.len()];
-                std::array::from_fn(|a| c[a] + r.range(-0.01, 0.01))
-            }
-            // A pile far larger than a leaf, a few repeated points, a lattice.
-            2 => match r.next_u64() % 4 {
-                0 => [0.25, 0.5, 0.75],
-                1 => centres[(r.next_u64() % 4) as usize],
-                _ => std::array::from_fn(|_| (r.next_u64() % 4) as f32 / 4.0),
-            },
-            3 => {
-                let t = r.f32();
-                [t, 0.5 * t, 0.25]
-            }
-            _ => [r.f32(), 0.5, r.f32()],
+        .map(|i| {
+            let p: [f64; D] = match kind {
+                0 => std::array::from_fn(|_| unit(&mut r)),
+                1 => {
+                    let c = centres[i % centres.len()];
+                    std::array::from_fn(|a| c[a] + 0.02 * unit(&mut r) - 0.01)
+                }
+                // A pile far larger than a leaf, a few repeated points, a lattice.
+                2 => match r.next_u64() % 4 {
+                    0 => [0.25; D],
+                    1 => centres[(r.next_u64() % 4) as usize],
+                    _ => std::array::from_fn(|_| (r.next_u64() % 4) as f64 / 4.0),
+                },
+                3 => {
+                    let t = unit(&mut r);
+                    dir.map(|d| t * d)
+                }
+                4 => {
+                    let (u, v) = (unit(&mut r), unit(&mut r));
+                    std::array::from_fn(|a| match a {
+                        0 => u,
+                        1 if D > 2 => v,
+                        _ if a == D - 1 => 0.5 * u + 0.25 * v,
+                        _ => 0.5,
+                    })
+                }
+                _ => [0.5; D],
+            };
+            p.map(S::of)
         })
         .collect()
 }
 
 /// Queries near the set, on the set's points, and far outside it.
-fn queries(points: &[[f32; 3]], seed: u64) -> Vec<[f32; 3]> {
+fn queries<const D: usize, S: Coord>(points: &[[S; D]], seed: u64) -> Vec<[S; D]> {
     let mut r = Rng::new(seed ^ 0x9E37);
-    let mut q: Vec<[f32; 3]> = (0..40)
-        .map(|_| [r.range(-0.2, 1.2), r.range(-0.2, 1.2), r.range(-0.2, 1.2)])
+    let mut q: Vec<[S; D]> = (0..30)
+        .map(|_| std::array::from_fn(|_| S::of(1.4 * unit(&mut r) - 0.2)))
         .collect();
-    q.extend(points.iter().step_by(points.len() / 10 + 1).copied());
-    q.extend([[1e6, -1e6, 3e5], [-50.0, 0.5, 0.5], [0.5, 0.5, 1e30]]);
+    q.extend(points.iter().step_by(points.len() / 8 + 1).copied());
+    let far = [1e6, -1e6, 3e5, -50.0, 1e30];
+    q.push(std::array::from_fn(|a| S::of(far[a % far.len()])));
+    q.push(std::array::from_fn(|a| {
+        S::of(if a == 0 { -50.0 } else { 0.5 })
+    }));
+    q.push([S::of(-1e30); D]);
     q
 }
 
-fn bits(v: &[Neighbour]) -> Vec<(u32, u32)> {
+fn bits<S: Scalar>(v: &[Neighbour<S>]) -> Vec<(u32, u64)> {
     v.iter().map(|n| n.bits()).collect()
 }
 
-fn check_all(points: &[[f32; 3]], params: &PointParams, seed: u64) {
+fn check_all<const D: usize, S: Coord>(points: &[[S; D]], params: &PointParams, seed: u64) {
     let built = build_points(points, params).unwrap();
-    let blob = write_point_tree(&built);
-    let tree = blob.point_tree().unwrap();
+    let blob = write_point_tree(&built).unwrap();
+    let tree: PointTreeN<D, S> = blob.point_tree().unwrap();
+    let inf = S::INFINITY;
     for q in queries(points, seed) {
         assert_eq!(
             tree.nearest(q).map(Neighbour::bits),
-            nearest_brute(points, q, f32::INFINITY).map(Neighbour::bits),
+            nearest_brute(points, q, inf).map(Neighbour::bits),
             "nearest {q:?}"
         );
-        for k in [1, 3, 10, 40] {
+        for k in [1, 3, 10, 40, 100] {
             let (mut a, mut b) = (vec![Neighbour::NONE; k], vec![Neighbour::NONE; k]);
             let na = tree.knn(q, &mut a);
-            let nb = knn_brute(points, q, f32::INFINITY, &mut b);
+            let nb = knn_brute(points, q, inf, &mut b);
             assert_eq!((na, bits(&a)), (nb, bits(&b)), "knn k={k} {q:?}");
         }
-        let r2 = 0.01;
+        let r2 = S::of(0.01);
         let (mut a, mut b) = (vec![Neighbour::NONE; 64], vec![Neighbour::NONE; 64]);
         let (ra, rb) = (
             tree.within(q, r2, &mut a),
@@ -80,14 +127,46 @@ fn check_all(points: &[[f32; 3]], params: &PointParams, seed: u64) {
         }
         let mut a = [Neighbour::NONE; 5];
         let mut b = [Neighbour::NONE; 5];
-        let na = tree.knn_within(q, 0.02, &mut a);
-        let nb = knn_brute(points, q, 0.02, &mut b);
+        let na = tree.knn_within(q, S::of(0.02), &mut a);
+        let nb = knn_brute(points, q, S::of(0.02), &mut b);
         assert_eq!((na, bits(&a)), (nb, bits(&b)), "knn_within {q:?}");
     }
 }
 
+/// Every kind of set at D, for f32 and f64.
+fn every_kind<const D: usize>(n: usize) {
+    for kind in 0..KINDS {
+        let params = PointParams {
+            leaf_size: 8,
+            parallel_min: 500,
+            ..PointParams::default()
+        };
+        check_all(&point_set::<D, f32>(kind, n, 1 + kind as u64), &params, 2);
+        check_all(&point_set::<D, f64>(kind, n, 1 + kind as u64), &params, 2);
+    }
+}
+
+#[test]
+fn brute_force_agreement_in_1_2_and_3_d() {
+    every_kind::<1>(2000);
+    every_kind::<2>(3000);
+    every_kind::<3>(3000);
+}
+
+#[test]
+fn brute_force_agreement_in_4_5_and_8_d() {
+    every_kind::<4>(2000);
+    every_kind::<5>(2000);
+    every_kind::<8>(3000);
+}
+
+#[test]
+fn brute_force_agreement_in_16_d() {
+    every_kind::<16>(2000);
+}
+
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(64))]
+    #![proptest_config(ProptestConfig::with_cases(48))]
     #[test]
     fn tree_equals_brute_force(
         kind in 0..KINDS,
@@ -95,16 +174,76 @@ proptest! {
         seed in any::<u64>(),
         leaf_size in 1usize..20,
     ) {
-        let points = point_set(kind, n, seed);
-        check_all(&points, &PointParams { leaf_size, parallel_min: 500, ..Default::default() }, seed);
+        let params = PointParams { leaf_size, parallel_min: 500, ..Default::default() };
+        check_all(&point_set::<3, f32>(kind, n, seed), &params, seed);
+        check_all(&point_set::<8, f64>(kind, n / 3, seed), &params, seed);
     }
 }
 
 #[test]
 fn every_kind_at_default_parameters() {
     for kind in 0..KINDS {
-        check_all(&point_set(kind, 20_000, 1), &PointParams::default(), 2);
+        check_all(
+            &point_set::<3, f32>(kind, 20_000, 1),
+            &PointParams::default(),
+            2,
+        );
     }
+}
+
+/// The k best by a full sort of every point: the oracle for the oracle's
+/// heap at large k.
+fn sorted_all<const D: usize, S: Scalar>(
+    points: &[[S; D]],
+    q: [S; D],
+    k: usize,
+) -> Vec<Neighbour<S>> {
+    let mut all: Vec<Neighbour<S>> = points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| Neighbour {
+            index: i as u32,
+            d2: distance2(p, &q),
+        })
+        .collect();
+    all.sort_by(|a, b| a.d2.total_cmp(&b.d2).then(a.index.cmp(&b.index)));
+    all.truncate(k);
+    all
+}
+
+#[test]
+fn large_k_is_exact_with_the_tie_rule() {
+    for kind in [0, 2, 5] {
+        let points = point_set::<3, f32>(kind, 5000, 7);
+        let built = build_points(&points, &PointParams::default()).unwrap();
+        let tree = built.view().unwrap();
+        for q in queries(&points, 8).into_iter().step_by(5) {
+            for k in [33, 500, 4999, 5000, 6000] {
+                let (mut a, mut b) = (vec![Neighbour::NONE; k], vec![Neighbour::NONE; k]);
+                let na = tree.knn(q, &mut a);
+                let nb = knn_brute(&points, q, f32::INFINITY, &mut b);
+                let want = sorted_all(&points, q, k);
+                assert_eq!(na, want.len(), "k={k}");
+                assert_eq!(bits(&a[..na]), bits(&want), "tree k={k} {q:?}");
+                assert_eq!((nb, bits(&b)), (na, bits(&a)), "brute k={k} {q:?}");
+            }
+        }
+    }
+}
+
+#[test]
+fn large_k_is_fast() {
+    // k = 50,000 of 100k points for 20 queries: about 1e10 shifts by sorted
+    // insertion (many seconds), a fraction of a second with the heap.
+    let points = point_set::<3, f32>(0, 100_000, 9);
+    let built = build_points(&points, &PointParams::default()).unwrap();
+    let tree = built.view().unwrap();
+    let mut out = vec![Neighbour::NONE; 50_000];
+    let t = std::time::Instant::now();
+    for q in point_set::<3, f32>(0, 20, 10) {
+        assert_eq!(tree.knn(q, &mut out), 50_000);
+    }
+    assert!(t.elapsed().as_secs_f64() < 3.0, "{:?}", t.elapsed());
 }
 
 #[test]
@@ -121,7 +260,7 @@ fn a_huge_pile_is_answered_by_index() {
 
 #[test]
 fn knn_all_pads_with_none_and_matches_single_queries() {
-    let points = point_set(0, 5, 3);
+    let points = point_set::<3, f32>(0, 5, 3);
     let built = build_points(&points, &PointParams::default()).unwrap();
     let tree = built.view().unwrap();
     let qs = queries(&points, 4);
@@ -137,7 +276,7 @@ fn knn_all_pads_with_none_and_matches_single_queries() {
 
 #[test]
 fn nan_queries_are_empty_and_nan_points_are_refused() {
-    let points = point_set(0, 100, 5);
+    let points = point_set::<3, f32>(0, 100, 5);
     let built = build_points(&points, &PointParams::default()).unwrap();
     let tree = built.view().unwrap();
     assert_eq!(tree.nearest([0.0, f32::NAN, 0.0]), None);
@@ -145,6 +284,83 @@ fn nan_queries_are_empty_and_nan_points_are_refused() {
     bad[42] = [1.0, f32::INFINITY, 0.0];
     let e = build_points(&bad, &PointParams::default()).unwrap_err();
     assert!(e.to_string().contains("point 42"), "{e}");
+    assert!(e.to_string().contains("axis 1"), "{e}");
+}
+
+#[test]
+fn a_blob_read_with_another_shape_is_refused_saying_which() {
+    let points = point_set::<8, f64>(0, 300, 5);
+    let blob = write_point_tree(&build_points(&points, &PointParams::default()).unwrap()).unwrap();
+    assert!(blob.point_tree::<8, f64>().is_ok());
+    let e = blob.point_tree::<8, f32>().unwrap_err();
+    assert_eq!(
+        e,
+        BlobError::WrongScalar {
+            expected: 4,
+            found: 8
+        }
+    );
+    assert_eq!(e.to_string(), "blob holds f64 coordinates, expected f32");
+    let e = blob.point_tree::<3, f64>().unwrap_err();
+    assert_eq!(
+        e,
+        BlobError::WrongDimension {
+            expected: 3,
+            found: 8
+        }
+    );
+    assert!(e.to_string().contains("8-dimensional"), "{e}");
+    // An f64 blob 4 bytes off its 8-byte alignment.
+    let mut words = vec![0u32; blob.as_bytes().len() / 4 + 1];
+    let bytes: &mut [u8] = bytemuck::cast_slice_mut(&mut words);
+    let at = if (bytes.as_ptr() as usize).is_multiple_of(8) {
+        4
+    } else {
+        0
+    };
+    let shifted = &mut bytes[at..at + blob.as_bytes().len()];
+    shifted.copy_from_slice(blob.as_bytes());
+    assert_eq!(
+        PointTreeN::<8, f64>::from_bytes(shifted).unwrap_err(),
+        BlobError::MisalignedScalar {
+            align: 8,
+            offset: 4
+        }
+    );
+    // A triangle tree's loader and a point loader refuse each other's blobs.
+    assert!(matches!(
+        blob.tree(),
+        Err(BlobError::WrongKind {
+            expected: 1,
+            found: 3
+        })
+    ));
+}
+
+#[test]
+fn the_writer_refuses_a_short_buffer_and_round_trips() {
+    let points = point_set::<2, f32>(1, 1000, 5);
+    let built = build_points(&points, &PointParams::default()).unwrap();
+    let view = built.view().unwrap();
+    let len = view.blob_len().unwrap();
+    let mut buf = vec![0u8; len - 1];
+    assert_eq!(
+        view.write_to(&mut buf),
+        Err(WriteError::BufferTooSmall {
+            need: len,
+            have: len - 1
+        })
+    );
+    let blob = write_point_tree(&built).unwrap();
+    assert_eq!(blob.as_bytes().len(), len);
+    let tree: PointTreeN<2> = blob.point_tree().unwrap();
+    assert_eq!(tree.coords(), view.coords());
+    for (at, &i) in tree.indices().iter().enumerate() {
+        assert_eq!(tree.point(at), Some(points[i as usize]));
+    }
+    assert_eq!(tree.point(points.len()), None);
+    assert_eq!(tree.node_bounds(), view.node_bounds());
+    assert_eq!(tree.max_depth(), view.max_depth());
 }
 
 /// A valid blob with its body edited by `f`, checksum made valid again so
@@ -163,91 +379,128 @@ fn resealed(mut bytes: Vec<u8>) -> Blob {
 }
 
 fn sample_blob() -> (Blob, usize, usize) {
-    let points = point_set(0, 200, 9);
+    let points = point_set::<3, f32>(0, 200, 9);
     let built = build_points(&points, &PointParams::default()).unwrap();
-    (write_point_tree(&built), built.nodes.len(), points.len())
+    (
+        write_point_tree(&built).unwrap(),
+        built.nodes.len(),
+        points.len(),
+    )
+}
+
+/// Where a 3-D f32 blob's sections start in its body (`points::blob`).
+struct At {
+    nodes: usize,
+    points: usize,
+    bounds: usize,
+    indices: usize,
+}
+
+fn sections(nodes: usize, n: usize) -> At {
+    let at_nodes = 8;
+    let points = at_nodes + nodes * 8 + nodes * 4;
+    let bounds = points + n * 12;
+    At {
+        nodes: at_nodes,
+        points,
+        bounds,
+        indices: bounds + nodes * 24,
+    }
 }
 
 #[test]
 fn hostile_point_blobs_are_refused_with_the_right_error() {
     let (blob, nodes, n) = sample_blob();
-    assert!(blob.point_tree().is_ok());
-    assert!(matches!(
-        blob.tree(),
-        Err(BlobError::WrongKind {
-            expected: 1,
-            found: 2
-        })
-    ));
-    let points_at = nodes * 8 + n * 4;
-    let bounds_at = points_at + n * 12;
+    let ok: Result<PointTree, _> = blob.point_tree();
+    assert!(ok.is_ok());
+    let at = sections(nodes, n);
+    let (points_at, bounds_at) = (at.points, at.bounds);
     // A point moved outside its leaf's box.
     let b = edited(&blob, |body| {
         body[points_at..points_at + 4].copy_from_slice(&1e9f32.to_le_bytes())
     });
     assert!(
-        matches!(b.point_tree(), Err(BlobError::PointOutsideNode { .. })),
+        matches!(tree(&b), Err(BlobError::PointOutsideNode { .. })),
         "{:?}",
-        b.point_tree()
+        tree(&b)
     );
     // A NaN point.
     let b = edited(&blob, |body| {
         body[points_at..points_at + 4].copy_from_slice(&f32::NAN.to_le_bytes())
     });
-    assert!(matches!(
-        b.point_tree(),
-        Err(BlobError::PointOutsideNode { .. })
-    ));
+    assert!(matches!(tree(&b), Err(BlobError::PointOutsideNode { .. })));
     // A child's box sticking out of the root's.
     let b = edited(&blob, |body| {
         let at = bounds_at + 24 + 12;
         body[at..at + 4].copy_from_slice(&1e9f32.to_le_bytes());
     });
     assert!(
-        matches!(b.point_tree(), Err(BlobError::BadNodeBounds { node: 1 })),
+        matches!(tree(&b), Err(BlobError::BadNodeBounds { node: 1 })),
         "{:?}",
-        b.point_tree()
+        tree(&b)
+    );
+    // An axis the points do not have.
+    let b = edited(&blob, |body| {
+        let at = at.nodes + 4;
+        body[at..at + 4].copy_from_slice(&3u32.to_le_bytes());
+    });
+    assert!(
+        matches!(
+            tree(&b),
+            Err(BlobError::AxisOutOfRange {
+                node: 0,
+                axis: 3,
+                dim: 3
+            })
+        ),
+        "{:?}",
+        tree(&b)
+    );
+    // A blob whose shape record says 2-D: refused before its sections.
+    let b = edited(&blob, |body| {
+        body[..4].copy_from_slice(&2u32.to_le_bytes());
+    });
+    assert_eq!(
+        tree(&b).unwrap_err(),
+        BlobError::WrongDimension {
+            expected: 3,
+            found: 2
+        }
     );
     // An index naming no point.
     let b = edited(&blob, |body| {
-        let at = nodes * 8;
+        let at = at.indices;
         body[at..at + 4].copy_from_slice(&u32::MAX.to_le_bytes());
     });
     assert!(matches!(
-        b.point_tree(),
+        tree(&b),
         Err(BlobError::PrimitiveOutOfRange { .. })
     ));
     // A leaf's indices out of order (the first two of the first leaf's run).
     let b = edited(&blob, |body| {
-        let at = nodes * 8;
+        let at = at.indices;
         let (x, y) = (body[at..at + 4].to_vec(), body[at + 4..at + 8].to_vec());
         body[at..at + 4].copy_from_slice(&y);
         body[at + 4..at + 8].copy_from_slice(&x);
     });
-    assert!(matches!(
-        b.point_tree(),
-        Err(BlobError::LeafNotSorted { .. })
-    ));
-    // The header's bounds disagreeing with the root's.
+    assert!(matches!(tree(&b), Err(BlobError::LeafNotSorted { .. })));
+    // Header bounds, which a point blob leaves zero.
     let mut bytes = blob.as_bytes().to_vec();
     bytes[40..44].copy_from_slice(&(-5.0f32).to_le_bytes());
-    assert_eq!(
-        resealed(bytes).point_tree().unwrap_err(),
-        BlobError::BadBounds
-    );
+    assert_eq!(tree(&resealed(bytes)).unwrap_err(), BlobError::BadBounds);
     // Truncated and trailing bytes.
     let bytes = blob.as_bytes();
     assert!(matches!(
-        Blob::from_bytes(&bytes[..bytes.len() - 24]).point_tree(),
+        tree(&Blob::from_bytes(&bytes[..bytes.len() - 4])),
         Err(BlobError::Truncated {
-            what: "node bounds",
+            what: "point indices",
             ..
         })
     ));
     let mut long = bytes.to_vec();
     long.extend([0; 4]);
     assert!(matches!(
-        Blob::from_bytes(&long).point_tree(),
+        tree(&Blob::from_bytes(&long)),
         Err(BlobError::TrailingBytes { .. })
     ));
 }
@@ -262,14 +515,22 @@ proptest! {
         let words = (blob.as_bytes().len() - HEADER_LEN) / 4;
         let at = (word % words) * 4;
         let b = edited(&blob, |body| body[at..at + 4].copy_from_slice(&value.to_le_bytes()));
-        if let Ok(tree) = b.point_tree() {
+        if let Ok(tree) = tree(&b) {
             let mut out = [Neighbour::NONE; 8];
             tree.knn(q, &mut out);
             let _ = tree.nearest(q);
             let _ = tree.within(q, 0.5, &mut out);
         }
         // The unchecked loader must not panic either (and is only O(1)).
-        // SAFETY: not upheld on purpose; the queries are not run on it.
-        let _ = unsafe { PointTree::from_bytes_unchecked(b.as_bytes()) };
+        if let Ok(tree) = PointTree::from_bytes_unchecked(b.as_bytes()) {
+            let mut out = [Neighbour::NONE; 8];
+            tree.knn(q, &mut out);
+            let _ = tree.within(q, 0.5, &mut out);
+        }
     }
+}
+
+/// The 3-D f32 view of a blob.
+fn tree(b: &Blob) -> Result<PointTree<'_>, BlobError> {
+    b.point_tree()
 }

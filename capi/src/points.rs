@@ -22,7 +22,11 @@ pub struct KdrayNeighbour {
     pub d2: f32,
 }
 
+// Both are `repr(C)` `{u32 index, f32 d2}`: the same layout, so the
+// caller's records are handed to the kernel in place.
 const _: () = assert!(core::mem::size_of::<KdrayNeighbour>() == core::mem::size_of::<Neighbour>());
+const _: () =
+    assert!(core::mem::align_of::<KdrayNeighbour>() == core::mem::align_of::<Neighbour>());
 
 /// Opens the point-tree blob `blob[0..len]` (written by `kdray
 /// build-points`) into `*tree`, validating all of it.
@@ -82,7 +86,12 @@ pub unsafe extern "C" fn kdray_nearest(
         check_ptr(nearest.cast_const())?;
         let n = t.nearest(q).unwrap_or(Neighbour::NONE);
         // SAFETY: checked non-null and aligned; writable by the contract.
-        unsafe { nearest.write(bytemuck::cast(n)) };
+        unsafe {
+            nearest.write(KdrayNeighbour {
+                index: n.index,
+                d2: n.d2,
+            })
+        };
         Ok(())
     })())
 }
@@ -177,7 +186,8 @@ unsafe fn outputs<'a>(
     check_ptr(found.cast_const())?;
     check_count::<KdrayNeighbour>(len)?;
     // SAFETY: non-null, aligned, `len` writable records by contract, the
-    // size fits a slice; KdrayNeighbour is Neighbour's layout and both are Pod.
+    // size fits a slice; KdrayNeighbour is Neighbour's layout (asserted above),
+    // and every bit pattern is a valid `u32` and `f32`.
     let out = unsafe { core::slice::from_raw_parts_mut(out.cast::<Neighbour>(), len) };
     // SAFETY: checked non-null and aligned; writable by the contract.
     Ok((out, unsafe { &mut *found }))

@@ -379,7 +379,7 @@ fn point_queries_are_the_kernels() {
             );
             assert_eq!(s, KdrayStatus::Ok);
         }
-        let bits = |n: &KdrayNeighbour| Neighbour::bits(bytemuck::cast(*n));
+        let bits = |n: &KdrayNeighbour| Neighbour { index: n.index, d2: n.d2 }.bits();
         assert_eq!(
             bits(&n),
             tree.nearest(q).unwrap_or(Neighbour::NONE).bits(),

@@ -10,9 +10,10 @@
 //!   [`MAX_DEPTH`] entries; [`TriangleTree::closest_hit8`] and friends
 //!   ([`Packet8`] and friends) trace 4, 8 or 16 rays at once with the same
 //!   answers.
-//! - [`PointTree::from_bytes`] does the same for a point tree, which
-//!   answers [`PointTree::nearest`], [`PointTree::knn`] and
-//!   [`PointTree::within`] exactly as brute force does.
+//! - [`PointTreeN::from_bytes`] does the same for a point tree over
+//!   D-dimensional `f32` or `f64` points ([`PointTree`]: 3-D `f32`), which
+//!   answers [`PointTreeN::nearest`], [`PointTreeN::knn`] and
+//!   [`PointTreeN::within`] exactly as brute force does.
 //!
 //! Blobs are written by `kdray build` (or `kdray_tools::blob`) on the host.
 //!
@@ -106,7 +107,8 @@ pub use geometry::{ray_is_valid, Axis, Bounds, Hit, Ray, MISS, OCCLUDED};
 /// version of the crate) so the types match.
 pub use glam;
 pub use points::{
-    distance2, knn_brute, nearest_brute, within_brute, BufferTooSmall, Neighbour, PointTree,
+    distance2, knn_brute, nearest_brute, within_brute, BufferTooSmall, Neighbour, PointNode,
+    PointNodeKind, PointTree, PointTreeN, Scalar, MAX_POINT_FIELD,
 };
 pub use triangle::{any_hit_brute, closest_hit_brute, SurfacePoint, Triangle, MAX_COORD};
 pub use triangle_tree::packet::{Packet, Packet16, Packet4, Packet8, PacketWidth};

@@ -711,3 +711,69 @@ fn json_outputs_say_everything() {
         "{out}"
     );
 }
+
+#[test]
+fn point_commands_take_any_dimension_and_f64() {
+    use kdray_kernel::{knn_brute, Neighbour};
+    // 200 2-D f64 points on a jittered grid, 7 queries.
+    let points: Vec<[f64; 2]> = (0..200)
+        .map(|i| {
+            [
+                (i % 20) as f64 * 0.1 + 1e-9 * i as f64,
+                (i / 20) as f64 * 0.3,
+            ]
+        })
+        .collect();
+    let queries: Vec<[f64; 2]> = (0..7)
+        .map(|i| [i as f64 * 0.31, 1.0 - i as f64 * 0.2])
+        .collect();
+    let p = write(&tmp("p2.pts"), bytemuck::cast_slice(&points));
+    let q = write(&tmp("q2.pts"), bytemuck::cast_slice(&queries));
+    let out = tmp("out2.knn").display().to_string();
+    let o = kdray(&["knn", &p, &q, "-k", "3", "-o", &out, "--dim", "2", "--f64"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // 12-byte records: u32 index, f64 squared distance; as brute force.
+    let bytes = std::fs::read(&out).unwrap();
+    assert_eq!(bytes.len(), 7 * 3 * 12);
+    for (qi, q) in queries.iter().enumerate() {
+        let mut want = [Neighbour::<f64>::NONE; 3];
+        knn_brute(&points, *q, f64::INFINITY, &mut want);
+        for (j, w) in want.iter().enumerate() {
+            let r = &bytes[(qi * 3 + j) * 12..][..12];
+            let index = u32::from_le_bytes(r[..4].try_into().unwrap());
+            let d2 = f64::from_le_bytes(r[4..].try_into().unwrap());
+            assert_eq!((index, d2.to_bits()), (w.index, w.d2.to_bits()));
+        }
+    }
+    // An 8-D f32 tree blob loads as 8-D f32 only.
+    let p8 = write(&tmp("p8.pts"), &[0u8; 32 * 50]);
+    let blob = tmp("p8.kdp");
+    let o = kdray(&[
+        "build-points",
+        &p8,
+        "-o",
+        &blob.display().to_string(),
+        "--dim",
+        "8",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let words = kdray_tools::blob::Blob::read(&blob).unwrap();
+    assert_eq!(words.point_tree::<8, f32>().unwrap().len(), 50);
+    let e = words.point_tree::<3, f32>().unwrap_err();
+    assert!(e.to_string().contains("8-dimensional"), "{e}");
+    // A file that is not whole records of the shape, and a D not compiled.
+    let o = kdray(&["knn", &p, &q, "-o", &out, "--dim", "3", "--f64"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("24-byte 3-D f64 point record"),
+        "{}",
+        stderr(&o)
+    );
+    let o = kdray(&["knn", &p, &q, "-o", &out, "--dim", "17"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("--dim 17 is not supported"),
+        "{}",
+        stderr(&o)
+    );
+}

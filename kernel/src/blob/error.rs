@@ -156,6 +156,38 @@ pub enum BlobError {
         /// The leaf's index.
         node: u32,
     },
+    /// A point blob holds points of another dimension than the loader's D.
+    WrongDimension {
+        /// The loader's D.
+        expected: u32,
+        /// The D the blob records.
+        found: u32,
+    },
+    /// A point blob holds another scalar type than the loader's (codes:
+    /// bytes per coordinate, 4 `f32`, 8 `f64`).
+    WrongScalar {
+        /// The loader's scalar size.
+        expected: u32,
+        /// The scalar size the blob records.
+        found: u32,
+    },
+    /// The input is not aligned for its scalar type (an `f64` point blob
+    /// must start at a multiple of 8).
+    MisalignedScalar {
+        /// The alignment needed.
+        align: usize,
+        /// The address modulo `align`.
+        offset: usize,
+    },
+    /// A point tree's interior node splits an axis the points do not have.
+    AxisOutOfRange {
+        /// The node's index.
+        node: u32,
+        /// The axis read.
+        axis: u32,
+        /// The points' dimension.
+        dim: u32,
+    },
     /// The tree is deeper than the traversal stack (or than the header says).
     TooDeep {
         /// The node found too deep.
@@ -246,6 +278,24 @@ impl fmt::Display for BlobError {
             LeafNotSorted { node } => {
                 write!(f, "leaf {node} lists its point indices out of increasing order")
             }
+            WrongDimension { expected, found } => write!(
+                f,
+                "blob holds {found}-dimensional points, expected {expected}-dimensional (load it with PointTreeN::<{found}, _>, or rebuild it with --dim {expected})"
+            ),
+            WrongScalar { expected, found } => write!(
+                f,
+                "blob holds {} coordinates, expected {}",
+                scalar_name(found),
+                scalar_name(expected)
+            ),
+            MisalignedScalar { align, offset } => write!(
+                f,
+                "blob is not {align}-byte aligned (address % {align} = {offset}), as its coordinates need"
+            ),
+            AxisOutOfRange { node, axis, dim } => write!(
+                f,
+                "node {node} splits axis {axis}, but the points have {dim} dimensions"
+            ),
             TooDeep { node, depth, max } => write!(
                 f,
                 "node {node} is at depth {depth}, deeper than the limit {max}"
@@ -257,8 +307,18 @@ impl fmt::Display for BlobError {
 fn kind_name(kind: u32) -> &'static str {
     match kind {
         1 => "triangles",
-        2 => "points",
+        2 => "3-D points of an older layout: rebuild it",
+        3 => "points",
         _ => "unknown",
+    }
+}
+
+/// A point blob's scalar type by its size in bytes.
+fn scalar_name(bytes: u32) -> &'static str {
+    match bytes {
+        4 => "f32",
+        8 => "f64",
+        _ => "an unknown scalar type",
     }
 }
 

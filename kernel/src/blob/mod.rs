@@ -8,7 +8,7 @@ pub mod wire;
 
 pub use error::{BlobError, WriteError};
 pub use node::{Node, NodeKind};
-pub(crate) use validate::{validate_nodes, validate_nodes_with};
+pub(crate) use validate::{validate_nodes, walk_layout};
 
 /// The deepest a node may be (the root is at depth 0). The traversal stack
 /// holds one entry per level, so this is also its capacity; builders cap

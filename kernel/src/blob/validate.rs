@@ -13,31 +13,13 @@ use super::error::BlobError;
 use super::node::{Node, NodeKind};
 use super::MAX_DEPTH;
 
-/// [`validate_nodes_with`] with no kind-specific checks.
+/// Walks the tree depth-first on a fixed stack ([`walk_layout`]),
+/// checking the layout rule of the module docs, every split and every
+/// leaf. Returns the max depth.
 pub(crate) fn validate_nodes(
     nodes: &[Node],
     prims: &[u32],
     items: usize,
-) -> Result<u32, BlobError> {
-    validate_nodes_with(nodes, prims, items, |_, _| Ok(()))
-}
-
-/// Walks the tree depth-first on a fixed stack, checking the layout rule
-/// of the module docs, every split and every leaf. Returns the max depth.
-///
-/// Nodes must also be in bounds: each child pair is checked against the
-/// node count before it is pushed, so the walk never indexes out of range,
-/// and since each pair must be the next unused one, it visits each node
-/// at most once: O(n), and it always terminates.
-///
-/// `visit(index, node)` is called for every node in depth-first order,
-/// below child first, after the node's own checks passed (so an interior
-/// node's children are in range): the hook for a tree kind's own checks.
-pub(crate) fn validate_nodes_with(
-    nodes: &[Node],
-    prims: &[u32],
-    items: usize,
-    mut visit: impl FnMut(u32, Node) -> Result<(), BlobError>,
 ) -> Result<u32, BlobError> {
     if nodes.is_empty() {
         return Err(BlobError::NoNodes);
@@ -48,7 +30,50 @@ pub(crate) fn validate_nodes_with(
             prim: prims[at],
         });
     }
-    let total = nodes.len();
+    walk_layout(nodes.len(), |i| {
+        let Some(&node) = nodes.get(i as usize) else {
+            // Unreachable: walk_layout range-checks pairs before it visits them.
+            return Err(BlobError::NoNodes);
+        };
+        match node.kind() {
+            NodeKind::Interior { split, child, .. } => {
+                if !split.is_finite() {
+                    return Err(BlobError::NonFiniteSplit { node: i });
+                }
+                Ok(Some(child))
+            }
+            NodeKind::Leaf { count, word } => {
+                if count == 1 {
+                    if word as usize >= items {
+                        return Err(BlobError::PrimitiveOutOfRange { at: i, prim: word });
+                    }
+                } else if (word as usize).saturating_add(count as usize) > prims.len() {
+                    return Err(BlobError::LeafRangeOutOfBounds {
+                        node: i,
+                        offset: word,
+                        count,
+                    });
+                }
+                Ok(None)
+            }
+        }
+    })
+}
+
+/// The layout rule's walk over `total` nodes, for any node type: depth
+/// first on a fixed stack, below child first. `node(i)` runs node `i`'s
+/// own checks and returns its below child (`None` for a leaf); the walk
+/// checks that child against the rule (the next unused pair, in range)
+/// before visiting it, so `node` is only called with indices below
+/// `total`, each at most once: O(n), and it always terminates. Returns the
+/// max depth.
+pub(crate) fn walk_layout(
+    total: usize,
+    mut node: impl FnMut(u32) -> Result<Option<u32>, BlobError>,
+) -> Result<u32, BlobError> {
+    if total == 0 {
+        return Err(BlobError::NoNodes);
+    }
     // (node, depth); a pending above child per level, plus the one popped.
     let mut stack = [(0u32, 0u32); MAX_DEPTH as usize + 2];
     let mut len = 1;
@@ -74,54 +99,29 @@ pub(crate) fn validate_nodes_with(
             });
         }
         max_depth = max_depth.max(depth);
-        let Some(&node) = nodes.get(i as usize) else {
-            // Unreachable: pairs are range-checked before they are pushed.
-            return Err(BlobError::UnreachableNodes {
-                reached: next_pair as u32,
-                total: total as u32,
-            });
+        let Some(child) = node(i)? else {
+            continue;
         };
-        match node.kind() {
-            NodeKind::Interior { split, child, .. } => {
-                if !split.is_finite() {
-                    return Err(BlobError::NonFiniteSplit { node: i });
-                }
-                if child as usize != next_pair || next_pair + 1 >= total {
-                    return Err(BlobError::BadChild {
-                        node: i,
-                        child,
-                        expected: next_pair as u32,
-                    });
-                }
-                next_pair += 2;
-                // depth <= MAX_DEPTH, so len <= depth + 1 <= MAX_DEPTH + 1 before
-                // these two pushes... one pending above child per level.
-                if len + 2 > stack.len() {
-                    return Err(BlobError::TooDeep {
-                        node: i,
-                        depth: depth + 1,
-                        max: MAX_DEPTH,
-                    });
-                }
-                stack[len] = (child + 1, depth + 1);
-                stack[len + 1] = (child, depth + 1);
-                len += 2;
-            }
-            NodeKind::Leaf { count, word } => {
-                if count == 1 {
-                    if word as usize >= items {
-                        return Err(BlobError::PrimitiveOutOfRange { at: i, prim: word });
-                    }
-                } else if (word as usize).saturating_add(count as usize) > prims.len() {
-                    return Err(BlobError::LeafRangeOutOfBounds {
-                        node: i,
-                        offset: word,
-                        count,
-                    });
-                }
-            }
+        if child as usize != next_pair || next_pair + 1 >= total {
+            return Err(BlobError::BadChild {
+                node: i,
+                child,
+                expected: next_pair as u32,
+            });
         }
-        visit(i, node)?;
+        next_pair += 2;
+        // depth <= MAX_DEPTH, so len <= depth + 1 <= MAX_DEPTH + 1 before
+        // these two pushes... one pending above child per level.
+        if len + 2 > stack.len() {
+            return Err(BlobError::TooDeep {
+                node: i,
+                depth: depth + 1,
+                max: MAX_DEPTH,
+            });
+        }
+        stack[len] = (child + 1, depth + 1);
+        stack[len + 1] = (child, depth + 1);
+        len += 2;
     }
     if next_pair != total {
         return Err(BlobError::UnreachableNodes {

@@ -5,7 +5,7 @@
 //!      0     8  magic "kdray\0\0\0"
 //!      8     4  endianness check 0xFEFF (the blob is little-endian)
 //!     12     4  format version (1)
-//!     16     4  kind: 1 triangle tree, 2 point tree
+//!     16     4  kind: 1 triangle tree, 3 point tree (2: an older 3-D point layout)
 //!     20     4  max depth of any node (root = 0)
 //!     24     4  node count
 //!     28     4  primitive-index count
@@ -14,8 +14,8 @@
 //!     40    24  scene bounds: min x y z, max x y z (f32)
 //!     64        sections, each 4-byte aligned and sized by the counts above:
 //!               nodes (8 B each), primitive indices (4 B each),
-//!               items (36 B triangles / 12 B points), then any
-//!               kind-specific sections.
+//!               triangles (36 B each); a point tree's sections are
+//!               listed in `points::blob`.
 //! ```
 //!
 //! Everything is 4-byte aligned, so a blob in 4-byte aligned memory is read
@@ -38,8 +38,9 @@ pub const ENDIAN_CHECK: u32 = 0xFEFF;
 pub const VERSION: u32 = 1;
 /// The kind of a triangle tree blob.
 pub const KIND_TRIANGLES: u32 = 1;
-/// The kind of a point tree blob.
-pub const KIND_POINTS: u32 = 2;
+/// The kind of a point tree blob (`points::blob` has its layout; kind 2
+/// was an older, 3-D-only one).
+pub const KIND_POINTS: u32 = 3;
 /// The header's size in bytes.
 pub const HEADER_LEN: usize = 64;
 /// Where the checksum field sits in the header.

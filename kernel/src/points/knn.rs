@@ -1,83 +1,184 @@
 //! The k nearest points, into a caller's buffer, sorted.
+//!
+//! Up to [`SORTED_MAX`] neighbours the buffer is kept sorted by insertion
+//! (a new point usually lands near the end, and k is small); past it, the
+//! buffer is a binary max-heap on (squared distance, index), sorted in
+//! place when the search ends: O(log k) per accepted point and
+//! O(k log k) for the final sort, where insertion would cost O(k) per
+//! point (O(k²) per query). The order is total (indices are distinct), so
+//! both keep exactly the k first points in it: the same answer, bit for bit.
 
+use super::scalar::query_is_valid;
 use super::search::Accumulator;
-use super::{distance2, query_is_valid, Neighbour, PointTree};
+use super::{distance2, Neighbour, PointTreeN, Scalar};
 
-/// The best `out.len()` points so far, kept sorted by (squared distance,
-/// index) in the caller's buffer by insertion: k is small, and a new point
-/// usually lands near the end.
-struct Knn<'o> {
-    out: &'o mut [Neighbour],
+/// The largest k kept by sorted insertion; larger ones use the heap.
+/// (Not tuned by measurement: insertion is the cheaper loop for the small
+/// k most queries ask; the heap bounds the cost for large k.)
+pub(crate) const SORTED_MAX: usize = 32;
+
+/// The best `out.len()` points so far, in the caller's buffer.
+struct Knn<'o, S: Scalar> {
+    out: &'o mut [Neighbour<S>],
     len: usize,
     /// The k-th best distance once the buffer is full, else the max distance.
-    bound: f32,
+    bound: S,
+    /// Is `out[..len]` a max-heap (k > [`SORTED_MAX`]) rather than sorted?
+    heap: bool,
 }
 
-impl<'o> Knn<'o> {
+/// Does `a` come after `b` in the result order?
+#[inline(always)]
+fn after<S: Scalar>(a: Neighbour<S>, b: Neighbour<S>) -> bool {
+    Neighbour::precedes(b.d2, b.index, a)
+}
+
+impl<'o, S: Scalar> Knn<'o, S> {
     #[inline(always)]
-    fn new(out: &'o mut [Neighbour], max_d2: f32) -> Knn<'o> {
+    fn new(out: &'o mut [Neighbour<S>], max_d2: S) -> Knn<'o, S> {
+        let heap = out.len() > SORTED_MAX;
         Knn {
             out,
             len: 0,
             bound: max_d2,
+            heap,
         }
     }
-}
 
-impl Accumulator for Knn<'_> {
-    #[inline(always)]
-    fn bound(&self) -> f32 {
-        self.bound
-    }
-
-    #[inline(always)]
-    fn offer(&mut self, d2: f32, index: u32) -> bool {
-        let k = self.out.len();
-        if d2 > self.bound {
-            return false;
-        }
-        // Full: must precede the k-th best; otherwise within the max distance.
-        let mut j = if self.len == k {
-            match self.out.last() {
-                Some(&last) if Neighbour::precedes(d2, index, last) => k - 1,
-                _ => return false,
+    /// The answer's length, `out[..len]` sorted.
+    fn finish(self) -> usize {
+        let Knn { out, len, heap, .. } = self;
+        if heap {
+            // Heapsort: move the worst to the end, restore the heap before it.
+            let mut end = len;
+            while end > 1 {
+                end -= 1;
+                out.swap(0, end);
+                if let Some(h) = out.get_mut(..end) {
+                    sift_down(h, 0);
+                }
             }
+        }
+        len
+    }
+
+    /// Sorted insertion of a point known to belong in the answer.
+    #[inline(always)]
+    fn insert_sorted(&mut self, n: Neighbour<S>) {
+        let k = self.out.len();
+        let mut j = if self.len == k {
+            k - 1
         } else {
             self.len += 1;
             self.len - 1
         };
-        // Shift the worse ones up one slot; j < k throughout. `get` and
-        // `get_mut`, not indices: the optimiser cannot see j < k, and an
-        // index would leave a panic path (firmware/).
+        // Shift the worse ones up one slot; j < k throughout.
         while j > 0 {
-            let Some(&prev) = self.out.get(j - 1) else {
-                break;
-            };
-            if !Neighbour::precedes(d2, index, prev) {
+            let prev = self.out[j - 1];
+            if !after(prev, n) {
                 break;
             }
-            if let Some(slot) = self.out.get_mut(j) {
-                *slot = prev;
-            }
+            self.out[j] = prev;
             j -= 1;
         }
-        if let Some(slot) = self.out.get_mut(j) {
-            *slot = Neighbour { index, d2 };
+        self.out[j] = n;
+    }
+
+    /// Heap insertion of a point known to belong in the answer.
+    fn insert_heap(&mut self, n: Neighbour<S>) {
+        let k = self.out.len();
+        if self.len == k {
+            // Replace the worst (the root) and sift it down.
+            self.out[0] = n;
+            sift_down(self.out, 0);
+        } else {
+            let mut j = self.len;
+            self.len += 1;
+            // Sift up.
+            while j > 0 {
+                let parent = (j - 1) / 2;
+                let p = self.out[parent];
+                if !after(n, p) {
+                    break;
+                }
+                self.out[j] = p;
+                j = parent;
+            }
+            self.out[j] = n;
+        }
+    }
+}
+
+/// Restores the max-heap property below `j` in `h`.
+fn sift_down<S: Scalar>(h: &mut [Neighbour<S>], mut j: usize) {
+    let Some(&n) = h.get(j) else { return };
+    loop {
+        let l = 2 * j + 1;
+        let Some(&left) = h.get(l) else { break };
+        let (c, child) = match h.get(l + 1) {
+            Some(&right) if after(right, left) => (l + 1, right),
+            _ => (l, left),
+        };
+        if !after(child, n) {
+            break;
+        }
+        h[j] = child;
+        j = c;
+    }
+    h[j] = n;
+}
+
+impl<S: Scalar> Accumulator<S> for Knn<'_, S> {
+    #[inline(always)]
+    fn bound(&self) -> S {
+        self.bound
+    }
+
+    #[inline(always)]
+    fn offer(&mut self, d2: S, index: u32) -> bool {
+        let k = self.out.len();
+        if d2 > self.bound {
+            return false;
+        }
+        // Full: must precede the k-th best (the last, or the heap's root);
+        // otherwise within the max distance.
+        if self.len == k {
+            let worst = if self.heap {
+                self.out.first()
+            } else {
+                self.out.last()
+            };
+            match worst {
+                Some(&w) if Neighbour::precedes(d2, index, w) => {}
+                _ => return false,
+            }
+        }
+        let n = Neighbour { index, d2 };
+        if self.heap {
+            self.insert_heap(n);
+        } else {
+            self.insert_sorted(n);
         }
         if self.len == k {
-            if let Some(last) = self.out.last() {
-                self.bound = last.d2;
+            let worst = if self.heap {
+                self.out.first()
+            } else {
+                self.out.last()
+            };
+            if let Some(w) = worst {
+                self.bound = w.d2;
             }
         }
         true
     }
 }
 
-impl PointTree<'_> {
+impl<const D: usize, S: Scalar> PointTreeN<'_, D, S> {
     /// The `out.len()` nearest points to `q`, written to the front of `out`
     /// sorted by squared distance, at equal distance by lower index;
     /// returns how many were found (fewer than `out.len()` only when the
     /// tree has fewer points). 0 for an empty `out` or a NaN query.
+    /// O(k log k) per query at most, for any k.
     ///
     /// # Panics
     /// Never. No allocation; the stack is [`MAX_DEPTH`](crate::MAX_DEPTH) entries.
@@ -92,7 +193,7 @@ impl PointTree<'_> {
     /// let points: Vec<[f32; 3]> = (0..1000)
     ///     .map(|i| [(i % 10) as f32, (i / 10 % 10) as f32, (i / 100) as f32])
     ///     .collect();
-    /// let blob = write_point_tree(&build_points(&points, &PointParams::default())?);
+    /// let blob = write_point_tree(&build_points(&points, &PointParams::default())?)?;
     /// let tree = PointTree::from_bytes(blob.as_bytes())?;
     /// let q = [0.0, 0.0, 0.0];
     /// let mut out = [Neighbour::NONE; 4];
@@ -104,25 +205,30 @@ impl PointTree<'_> {
     /// assert_eq!(out.map(Neighbour::bits), brute.map(Neighbour::bits));
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
-    pub fn knn(&self, q: [f32; 3], out: &mut [Neighbour]) -> usize {
-        self.knn_within(q, f32::INFINITY, out)
+    pub fn knn(&self, q: [S; D], out: &mut [Neighbour<S>]) -> usize {
+        self.knn_within(q, S::INFINITY, out)
     }
 
     /// [`Self::knn`] among the points at squared distance `<= max_d2`
     /// (none if `max_d2` is NaN).
-    pub fn knn_within(&self, q: [f32; 3], max_d2: f32, out: &mut [Neighbour]) -> usize {
+    pub fn knn_within(&self, q: [S; D], max_d2: S, out: &mut [Neighbour<S>]) -> usize {
         if out.is_empty() || !query_is_valid(&q) || max_d2.is_nan() {
             return 0;
         }
         let mut acc = Knn::new(out, max_d2);
         self.search(&q, &mut acc);
-        acc.len
+        acc.finish()
     }
 }
 
-/// The oracle for [`PointTree::knn_within`]: every point in order, with
+/// The oracle for [`PointTreeN::knn_within`]: every point in order, with
 /// the same distance expression and tie rule (index = position).
-pub fn knn_brute(points: &[[f32; 3]], q: [f32; 3], max_d2: f32, out: &mut [Neighbour]) -> usize {
+pub fn knn_brute<const D: usize, S: Scalar>(
+    points: &[[S; D]],
+    q: [S; D],
+    max_d2: S,
+    out: &mut [Neighbour<S>],
+) -> usize {
     if out.is_empty() || !query_is_valid(&q) || max_d2.is_nan() {
         return 0;
     }
@@ -130,7 +236,7 @@ pub fn knn_brute(points: &[[f32; 3]], q: [f32; 3], max_d2: f32, out: &mut [Neigh
     for (i, p) in points.iter().enumerate() {
         acc.offer(distance2(p, &q), i as u32);
     }
-    acc.len
+    acc.finish()
 }
 
 #[cfg(test)]

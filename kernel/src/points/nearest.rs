@@ -1,18 +1,19 @@
 //! The nearest point: the lecture's query, k = 1.
 
+use super::scalar::query_is_valid;
 use super::search::Accumulator;
-use super::{distance2, query_is_valid, Neighbour, PointTree};
+use super::{distance2, Neighbour, PointTreeN, Scalar};
 
 /// The best point so far: smaller squared distance, then lower index.
-struct Nearest {
-    best: Neighbour,
+struct Nearest<S: Scalar> {
+    best: Neighbour<S>,
 }
 
-impl Nearest {
+impl<S: Scalar> Nearest<S> {
     /// Nothing found yet; points farther than `max_d2` are never taken
     /// (the sentinel index `u32::MAX` loses every tie at `max_d2`).
     #[inline(always)]
-    fn new(max_d2: f32) -> Nearest {
+    fn new(max_d2: S) -> Nearest<S> {
         Nearest {
             best: Neighbour {
                 index: u32::MAX,
@@ -21,19 +22,19 @@ impl Nearest {
         }
     }
 
-    fn answer(&self) -> Option<Neighbour> {
+    fn answer(&self) -> Option<Neighbour<S>> {
         (self.best.index != u32::MAX).then_some(self.best)
     }
 }
 
-impl Accumulator for Nearest {
+impl<S: Scalar> Accumulator<S> for Nearest<S> {
     #[inline(always)]
-    fn bound(&self) -> f32 {
+    fn bound(&self) -> S {
         self.best.d2
     }
 
     #[inline(always)]
-    fn offer(&mut self, d2: f32, index: u32) -> bool {
+    fn offer(&mut self, d2: S, index: u32) -> bool {
         let better = Neighbour::precedes(d2, index, self.best);
         if better {
             self.best = Neighbour { index, d2 };
@@ -42,7 +43,7 @@ impl Accumulator for Nearest {
     }
 }
 
-impl PointTree<'_> {
+impl<const D: usize, S: Scalar> PointTreeN<'_, D, S> {
     /// The nearest point to `q`: smallest squared distance, at equal
     /// distance the lowest index. `None` for an empty tree or a query with
     /// a NaN coordinate.
@@ -60,7 +61,7 @@ impl PointTree<'_> {
     /// let points: Vec<[f32; 3]> = (0..1000)
     ///     .map(|i| [(i % 10) as f32, (i / 10 % 10) as f32, (i / 100) as f32])
     ///     .collect();
-    /// let blob = write_point_tree(&build_points(&points, &PointParams::default())?);
+    /// let blob = write_point_tree(&build_points(&points, &PointParams::default())?)?;
     /// let tree = PointTree::from_bytes(blob.as_bytes())?;
     /// let n = tree.nearest([3.2, 4.1, 5.4]).unwrap();
     /// assert_eq!(n.index, 543); // the grid point (3, 4, 5)
@@ -68,14 +69,14 @@ impl PointTree<'_> {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     #[must_use]
-    pub fn nearest(&self, q: [f32; 3]) -> Option<Neighbour> {
-        self.nearest_within(q, f32::INFINITY)
+    pub fn nearest(&self, q: [S; D]) -> Option<Neighbour<S>> {
+        self.nearest_within(q, S::INFINITY)
     }
 
     /// [`Self::nearest`] among the points at squared distance `<= max_d2`
     /// (`None` if there is none, or `max_d2` is NaN).
     #[must_use]
-    pub fn nearest_within(&self, q: [f32; 3], max_d2: f32) -> Option<Neighbour> {
+    pub fn nearest_within(&self, q: [S; D], max_d2: S) -> Option<Neighbour<S>> {
         if !query_is_valid(&q) || max_d2.is_nan() {
             return None;
         }
@@ -85,10 +86,14 @@ impl PointTree<'_> {
     }
 }
 
-/// The oracle for [`PointTree::nearest_within`]: every point in order,
+/// The oracle for [`PointTreeN::nearest_within`]: every point in order,
 /// with the same distance expression and tie rule (index = position).
 #[must_use]
-pub fn nearest_brute(points: &[[f32; 3]], q: [f32; 3], max_d2: f32) -> Option<Neighbour> {
+pub fn nearest_brute<const D: usize, S: Scalar>(
+    points: &[[S; D]],
+    q: [S; D],
+    max_d2: S,
+) -> Option<Neighbour<S>> {
     if !query_is_valid(&q) || max_d2.is_nan() {
         return None;
     }
@@ -115,7 +120,7 @@ pub(crate) mod tests {
         // (2,0,0): points 1 (1,0,0) and 3 (3,0,0) both at d2 = 1: lower index wins.
         assert_eq!(
             tree.nearest([2.0, 0.0, 0.0]).unwrap().bits(),
-            (1, 1.0f32.to_bits())
+            (1, u64::from(1.0f32.to_bits()))
         );
         // (5,5,0) is on the pile of points 4 and 5: d2 = 0, index 4.
         assert_eq!(tree.nearest([5.0, 5.0, 0.0]).unwrap().bits(), (4, 0));

@@ -4,34 +4,36 @@
 //! current bound. What "better" and "bound" mean is the query's
 //! [`Accumulator`].
 
-use super::{box_distance2, distance2, PointTree};
-use crate::blob::MAX_DEPTH;
+use super::scalar::box_distance2;
+use super::{distance2, PointNode, PointTreeN, Scalar, MAX_DEPTH};
 
 /// What a query keeps while the search runs.
-pub(crate) trait Accumulator {
+pub(crate) trait Accumulator<S> {
     /// Subtrees whose box is at a squared distance *above* this are pruned
     /// (equal is kept: it may hold an equally distant, lower-index point).
-    fn bound(&self) -> f32;
+    fn bound(&self) -> S;
 
     /// Offers the point `index` at squared distance `d2`; `false` if it was
     /// rejected (not within the bound, or after the k-th best).
-    fn offer(&mut self, d2: f32, index: u32) -> bool;
+    fn offer(&mut self, d2: S, index: u32) -> bool;
 }
 
-impl PointTree<'_> {
+impl<const D: usize, S: Scalar> PointTreeN<'_, D, S> {
     /// Runs the search for `q` (not NaN: checked by the callers) into `acc`.
     ///
     /// The stack holds at most one far child per level, so [`MAX_DEPTH`]
     /// entries suffice for a validated tree; for an unvalidated one a full
-    /// stack drops the far child (a wrong answer, never a panic).
+    /// stack drops the far child (a wrong answer, never a panic). In a
+    /// tree each node is entered at most once per query, so the walk stops
+    /// after as many node visits as there are nodes: a blob whose children
+    /// loop (loaded unchecked) ends the query, never hangs it.
     #[inline(always)]
-    pub(crate) fn search<A: Accumulator>(&self, q: &[f32; 3], acc: &mut A) {
+    pub(crate) fn search<A: Accumulator<S>>(&self, q: &[S; D], acc: &mut A) {
         // (far child, lower bound on its points' squared distances)
-        let mut stack = [(0u32, 0f32); MAX_DEPTH as usize];
+        let mut stack = [(0u32, S::ZERO); MAX_DEPTH as usize];
         let mut len = 0usize;
-        // Indexing q by a node's 2-bit axis field needs 4 lanes to be total.
-        let q4 = [q[0], q[1], q[2], 0.0];
         let mut node_idx = 0u32;
+        let mut visits_left = self.nodes.len();
         let Some(root) = self.bounds.first() else {
             return;
         };
@@ -46,25 +48,35 @@ impl PointTree<'_> {
             // (every far point is beyond the plane, validated) and the
             // subtree's own bound; its box is read only if it is popped.
             let leaf = loop {
-                let Some(&node) = self.nodes.get(node_idx as usize) else {
+                let (Some(&node), Some(&split)) = (
+                    self.nodes.get(node_idx as usize),
+                    self.splits.get(node_idx as usize),
+                ) else {
                     break None;
                 };
+                if visits_left == 0 {
+                    return;
+                }
+                visits_left -= 1;
                 if node.is_leaf() {
                     break Some(node);
                 }
-                let gap = q4[node.axis_bits() & 3] - node.split();
+                // A validated axis is below D; the clamp keeps an
+                // unvalidated one in range without a branch.
+                let axis = (node.field() as usize).min(D - 1);
+                let gap = q[axis] - split;
                 // Near child: the one on the query's side of the split
                 // plane (below for coordinates <= split).
-                let above_near = u32::from(gap > 0.0);
-                let child = node.upper();
+                let above_near = u32::from(gap > S::ZERO);
+                let child = node.word0();
                 let far_d = (gap * gap).max(lower);
                 if far_d <= acc.bound() {
                     if let Some(slot) = stack.get_mut(len) {
-                        *slot = (child + 1 - above_near, far_d);
+                        *slot = (child.wrapping_add(1).wrapping_sub(above_near), far_d);
                         len += 1;
                     }
                 }
-                node_idx = child + above_near;
+                node_idx = child.wrapping_add(above_near);
             };
             if let Some(node) = leaf {
                 self.scan_leaf(node_idx, node, q, acc);
@@ -94,45 +106,85 @@ impl PointTree<'_> {
         }
     }
 
-    /// Offers every point of a leaf to `acc`.
+    /// Offers every point of a leaf to `acc`, in position order.
+    ///
+    /// The leaf's coordinates are stored axis by axis, so its distances
+    /// are computed [`CHUNK`] points at a time, one axis after the other:
+    /// each step is one vector operation over the chunk, and each point's
+    /// sum still runs over the axes left to right, as in [`distance2`],
+    /// so the bits are the same.
     #[inline(always)]
-    fn scan_leaf<A: Accumulator>(
+    fn scan_leaf<A: Accumulator<S>>(
         &self,
         node_idx: u32,
-        node: crate::blob::Node,
-        q: &[f32; 3],
+        node: PointNode,
+        q: &[S; D],
         acc: &mut A,
     ) {
-        let start = node.word0() as usize;
-        let run = start..start.saturating_add(node.upper() as usize);
-        let (Some(points), Some(indices)) = (self.points.get(run.clone()), self.indices.get(run))
-        else {
+        let (offset, count) = (node.word0() as usize, node.field() as usize);
+        let (Some(block), Some(indices)) = (
+            self.leaf_block(offset, count),
+            self.indices.get(offset..offset.saturating_add(count)),
+        ) else {
             return;
         };
-        let pile = self
-            .bounds
-            .get(node_idx as usize)
-            .is_some_and(|b| b.min == b.max);
+        // Only a large leaf is worth the read of its box: a small pile is
+        // scanned as fast as any leaf.
+        let pile = count > PILE_MIN
+            && self
+                .bounds
+                .get(node_idx as usize)
+                .is_some_and(|b| b[0] == b[1]);
         if pile {
             // All points at one location, indices increasing: once one is
             // rejected, so is every later one (module docs, "Ties").
-            let Some(p) = points.first() else { return };
-            let d2 = distance2(p, q);
+            let mut p = [S::ZERO; D];
+            for (a, c) in p.iter_mut().enumerate() {
+                let Some(&x) = block.get(a * count) else {
+                    return;
+                };
+                *c = x;
+            }
+            let d2 = distance2(&p, q);
             for &i in indices {
                 if !acc.offer(d2, i) {
                     break;
                 }
             }
-        } else {
-            for (j, p) in points.iter().enumerate() {
-                let d2 = distance2(p, q);
-                // Most points lose; only a winner's index is read.
-                if d2 <= acc.bound() {
-                    if let Some(&i) = indices.get(j) {
-                        acc.offer(d2, i);
+            return;
+        }
+        for (c, ids) in indices.chunks(CHUNK).enumerate() {
+            let j0 = c * CHUNK;
+            let mut d = [S::ZERO; CHUNK];
+            for (a, &qa) in q.iter().enumerate() {
+                let at = a * count + j0;
+                let Some(col) = block.get(at..at + ids.len()) else {
+                    return;
+                };
+                if a == 0 {
+                    for (dj, &x) in d.iter_mut().zip(col) {
+                        let t = x - qa;
+                        *dj = t * t;
                     }
+                } else {
+                    for (dj, &x) in d.iter_mut().zip(col) {
+                        let t = x - qa;
+                        *dj = dj.add(t * t);
+                    }
+                }
+            }
+            for (&d2, &i) in d.iter().zip(ids) {
+                // Most points lose: one compare each.
+                if d2 <= acc.bound() {
+                    acc.offer(d2, i);
                 }
             }
         }
     }
 }
+
+/// Points per step of the leaf scan.
+const CHUNK: usize = 8;
+
+/// Leaves of more points than this are checked for being a pile.
+const PILE_MIN: usize = 64;

@@ -1,10 +1,11 @@
 //! All points within a radius: by callback, or into a caller's buffer.
 
+use super::scalar::query_is_valid;
 use super::search::Accumulator;
-use super::{distance2, query_is_valid, Neighbour, PointTree};
+use super::{distance2, Neighbour, PointTreeN, Scalar};
 use core::fmt;
 
-/// [`PointTree::within`]'s buffer could not hold every point in range.
+/// [`PointTreeN::within`]'s buffer could not hold every point in range.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BufferTooSmall {
     /// How many points are in range: the buffer length that suffices.
@@ -24,19 +25,19 @@ impl fmt::Display for BufferTooSmall {
 impl core::error::Error for BufferTooSmall {}
 
 /// Hands every point at squared distance `<= r2` to a callback.
-struct Within<F> {
-    r2: f32,
+struct Within<S, F> {
+    r2: S,
     found: F,
 }
 
-impl<F: FnMut(Neighbour)> Accumulator for Within<F> {
+impl<S: Scalar, F: FnMut(Neighbour<S>)> Accumulator<S> for Within<S, F> {
     #[inline(always)]
-    fn bound(&self) -> f32 {
+    fn bound(&self) -> S {
         self.r2
     }
 
     #[inline(always)]
-    fn offer(&mut self, d2: f32, index: u32) -> bool {
+    fn offer(&mut self, d2: S, index: u32) -> bool {
         let inside = d2 <= self.r2;
         if inside {
             (self.found)(Neighbour { index, d2 });
@@ -45,15 +46,15 @@ impl<F: FnMut(Neighbour)> Accumulator for Within<F> {
     }
 }
 
-impl PointTree<'_> {
+impl<const D: usize, S: Scalar> PointTreeN<'_, D, S> {
     /// Calls `found` once for every point at squared distance `<= r2` from
     /// `q` (the radius is given squared, so "within" is decided by the same
-    /// f32 distance as everywhere else), in tree order. Nothing for a NaN
+    /// distance as everywhere else), in tree order. Nothing for a NaN
     /// query or a NaN `r2`.
     ///
     /// # Panics
     /// Never (unless `found` does). No allocation.
-    pub fn for_each_within(&self, q: [f32; 3], r2: f32, found: impl FnMut(Neighbour)) {
+    pub fn for_each_within(&self, q: [S; D], r2: S, found: impl FnMut(Neighbour<S>)) {
         if !query_is_valid(&q) || r2.is_nan() {
             return;
         }
@@ -81,7 +82,7 @@ impl PointTree<'_> {
     /// let points: Vec<[f32; 3]> = (0..1000)
     ///     .map(|i| [(i % 10) as f32, (i / 10 % 10) as f32, (i / 100) as f32])
     ///     .collect();
-    /// let blob = write_point_tree(&build_points(&points, &PointParams::default())?);
+    /// let blob = write_point_tree(&build_points(&points, &PointParams::default())?)?;
     /// let tree = PointTree::from_bytes(blob.as_bytes())?;
     /// let mut out = [Neighbour::NONE; 8];
     /// // Radius 1 (squared: 1) around a grid point: itself and its 6 neighbours.
@@ -94,9 +95,9 @@ impl PointTree<'_> {
     /// ```
     pub fn within(
         &self,
-        q: [f32; 3],
-        r2: f32,
-        out: &mut [Neighbour],
+        q: [S; D],
+        r2: S,
+        out: &mut [Neighbour<S>],
     ) -> Result<usize, BufferTooSmall> {
         let mut needed = 0;
         self.for_each_within(q, r2, |n| {
@@ -110,7 +111,7 @@ impl PointTree<'_> {
 }
 
 /// Sorts the found points, or reports that they did not fit.
-fn finish(out: &mut [Neighbour], needed: usize) -> Result<usize, BufferTooSmall> {
+fn finish<S: Scalar>(out: &mut [Neighbour<S>], needed: usize) -> Result<usize, BufferTooSmall> {
     let Some(found) = out.get_mut(..needed) else {
         return Err(BufferTooSmall { needed });
     };
@@ -118,16 +119,16 @@ fn finish(out: &mut [Neighbour], needed: usize) -> Result<usize, BufferTooSmall>
     Ok(needed)
 }
 
-/// The oracle for [`PointTree::within`]: every point in order, with the
+/// The oracle for [`PointTreeN::within`]: every point in order, with the
 /// same distance expression (index = position).
 ///
 /// # Errors
-/// As [`PointTree::within`].
-pub fn within_brute(
-    points: &[[f32; 3]],
-    q: [f32; 3],
-    r2: f32,
-    out: &mut [Neighbour],
+/// As [`PointTreeN::within`].
+pub fn within_brute<const D: usize, S: Scalar>(
+    points: &[[S; D]],
+    q: [S; D],
+    r2: S,
+    out: &mut [Neighbour<S>],
 ) -> Result<usize, BufferTooSmall> {
     let mut needed = 0;
     if query_is_valid(&q) && !r2.is_nan() {

@@ -1,9 +1,11 @@
-//! `kdray knn POINTS QUERIES -k K -o OUT`: build a point tree, answer the
-//! k nearest neighbours of every query, write a `.knn` file.
+//! `kdray knn POINTS QUERIES -k K -o OUT [--dim D] [--f64]`: build a point
+//! tree, answer the k nearest neighbours of every query, write a `.knn`
+//! file.
 
+use super::build_points::{dispatch, Shape, ShapedCommand};
 use super::json::JsonObject;
 use super::{plural, thread_pool, CmdResult};
-use kdray_kernel::Neighbour;
+use kdray_kernel::{Neighbour, Scalar};
 use kdray_tools::io;
 use kdray_tools::points::{build_points, knn_all, PointParams};
 use std::path::PathBuf;
@@ -12,14 +14,17 @@ use std::time::Instant;
 /// Arguments of `kdray knn`.
 #[derive(clap::Args, Debug)]
 pub(crate) struct Args {
-    /// The points (.pts: 12-byte records, docs/formats.md).
+    /// The points (.pts: D coordinates per point, docs/points.md).
     points: PathBuf,
-    /// The query points (.pts).
+    /// The query points (.pts, the same shape).
     queries: PathBuf,
+    #[command(flatten)]
+    shape: Shape,
     /// How many neighbours per query.
     #[arg(short, default_value_t = 1)]
     k: usize,
-    /// Where to write the neighbours (.knn: k 8-byte records per query).
+    /// Where to write the neighbours (.knn: k records per query, u32
+    /// index then the squared distance as f32, or f64 with --f64).
     #[arg(short, long)]
     output: PathBuf,
     /// Points per leaf (the lecture's m).
@@ -41,9 +46,31 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     if a.k == 0 || a.reps == 0 || a.leaf_size == 0 {
         return Err("-k, --reps and --leaf-size must be at least 1".into());
     }
+    dispatch(a.shape, a)
+}
+
+/// The `.knn` records: per neighbour its index, then its squared distance,
+/// both little-endian.
+fn knn_bytes<S: Scalar>(out: &[Neighbour<S>]) -> Vec<u8> {
+    let mut bytes = Vec::with_capacity(out.len() * (4 + S::BYTES as usize));
+    for n in out {
+        bytes.extend_from_slice(&n.index.to_le_bytes());
+        bytes.extend_from_slice(bytemuck::bytes_of(&n.d2));
+    }
+    bytes
+}
+
+impl ShapedCommand for Args {
+    fn run<const D: usize, S: Scalar>(&self) -> CmdResult {
+        run_shaped::<D, S>(self)
+    }
+}
+
+fn run_shaped<const D: usize, S: Scalar>(a: &Args) -> CmdResult {
     let pool = thread_pool(a.threads)?;
-    let points: Vec<[f32; 3]> = io::read_records(&a.points, "point")?;
-    let queries: Vec<[f32; 3]> = io::read_records(&a.queries, "point")?;
+    let what = a.shape.describe();
+    let points: Vec<[S; D]> = io::read_records(&a.points, &what)?;
+    let queries: Vec<[S; D]> = io::read_records(&a.queries, &what)?;
     // Every query has k neighbours only when k <= n: a larger k would only
     // pad each query's records (and ask for k slots per query).
     if a.k > points.len() {
@@ -89,13 +116,15 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         }
         Ok(())
     })?;
-    io::write_records(&a.output, &out)?;
+    io::write_bytes(&a.output, &knn_bytes(&out))?;
     let qps = queries.len() as f64 / query_s.max(1e-12);
     if a.json {
         let j = JsonObject::default()
             .num("points", points.len() as f64)
             .num("queries", queries.len() as f64)
             .num("k", a.k as f64)
+            .num("dim", D as f64)
+            .str("scalar", S::NAME)
             .num("threads", pool.current_num_threads() as f64)
             .num("leaf_size", a.leaf_size as f64)
             .num("reps", a.reps as f64)

@@ -1,7 +1,8 @@
-//! The lecture's point k-d tree builder: split the widest dimension at the
-//! median (an O(n) selection per level, so O(n log n) in all), keep the
-//! tight bounds of the points under every node, stop at `leaf_size` points
-//! or when the widest extent is at most `min_width`.
+//! The lecture's point k-d tree builder, for any dimension D and for f32
+//! or f64 coordinates: split the widest dimension at the median (an O(n)
+//! selection per level, so O(n log n) in all), keep the tight bounds of the
+//! points under every node, stop at `leaf_size` points or when the widest
+//! extent is at most `min_width`.
 //!
 //! The points are carried along with their indices and partitioned in
 //! place, so when the recursion ends they are in leaf order: each leaf's
@@ -10,8 +11,9 @@
 //! spliced into the depth-first layout afterwards; the output is the same
 //! for any thread count.
 
-use kdray_kernel::node::MAX_NODE_FIELD;
-use kdray_kernel::{Axis, BlobError, Bounds, Node, PointTree, MAX_DEPTH};
+use kdray_kernel::{
+    BlobError, PointNode, PointNodeKind, PointTreeN, Scalar, MAX_DEPTH, MAX_POINT_FIELD,
+};
 use std::fmt;
 
 /// The builder's parameters, defaults documented per field.
@@ -27,7 +29,7 @@ pub struct PointParams {
     /// A node whose widest extent is at most this is a leaf, however many
     /// points it holds. Default 0: only piles of equal points stop early
     /// (they cannot be split; the query scans such a pile in O(k)).
-    pub min_width: f32,
+    pub min_width: f64,
     /// Subtrees of at least this many points are built in parallel.
     /// Default 65536.
     pub parallel_min: usize,
@@ -50,25 +52,34 @@ pub enum PointBuildError {
     NonFinite {
         /// The point's index.
         point: usize,
-        /// Its coordinates.
-        coords: [f32; 3],
+        /// The axis of the first bad coordinate.
+        axis: usize,
+        /// Its value.
+        value: f64,
     },
-    /// More points than a node's 30-bit fields can count.
+    /// More points than a tree can index.
     TooManyPoints {
         /// How many there are.
         count: usize,
     },
 }
 
+/// The most points a tree holds: its node count (about 2n / leaf size,
+/// at most 2n) and every index must fit the blob's 32-bit counts.
+pub const MAX_POINTS: usize = (1 << 30) - 1;
+
 impl fmt::Display for PointBuildError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            PointBuildError::NonFinite { point, coords } => {
-                write!(f, "point {point} has a non-finite coordinate {coords:?}")
+            PointBuildError::NonFinite { point, axis, value } => {
+                write!(
+                    f,
+                    "point {point} has a non-finite coordinate {value} (axis {axis})"
+                )
             }
             PointBuildError::TooManyPoints { count } => write!(
                 f,
-                "{count} points is more than a tree can index ({MAX_NODE_FIELD})"
+                "{count} points is more than a tree can index ({MAX_POINTS})"
             ),
         }
     }
@@ -76,122 +87,155 @@ impl fmt::Display for PointBuildError {
 
 impl std::error::Error for PointBuildError {}
 
-/// A built point tree, in the kernel's layout (see `kdray_kernel::PointTree`).
+/// A built point tree, in the kernel's layout (see `kdray_kernel::PointTreeN`).
 #[derive(Clone, Debug, PartialEq)]
-pub struct BuiltPoints {
+pub struct BuiltPoints<const D: usize, S: Scalar = f32> {
     /// Nodes in the depth-first layout; leaves hold runs of the arrays below.
-    pub nodes: Vec<Node>,
+    pub nodes: Vec<PointNode>,
+    /// The split location of each interior node (0 for a leaf).
+    pub splits: Vec<S>,
     /// The input index of each point of `points`.
     pub indices: Vec<u32>,
-    /// The points in leaf order.
-    pub points: Vec<[f32; 3]>,
-    /// The tight bounds of the points at or below each node.
-    pub bounds: Vec<Bounds>,
+    /// The points' coordinates in leaf order, each leaf's run axis by axis
+    /// (`kdray_kernel::PointTreeN::coords`).
+    pub coords: Vec<S>,
+    /// The tight bounds `[min, max]` of the points at or below each node.
+    pub bounds: Vec<[[S; D]; 2]>,
     /// The depth of the deepest node.
     pub max_depth: u32,
 }
 
-impl BuiltPoints {
-    /// The validated kernel view ([`PointTree::from_parts`]).
+impl<const D: usize, S: Scalar> BuiltPoints<D, S> {
+    /// The validated kernel view ([`PointTreeN::from_parts`]).
     ///
     /// # Errors
     /// The kernel's [`BlobError`] (never, for a tree [`build_points`] made).
-    pub fn view(&self) -> Result<PointTree<'_>, BlobError> {
-        PointTree::from_parts(&self.nodes, &self.indices, &self.points, &self.bounds)
+    pub fn view(&self) -> Result<PointTreeN<'_, D, S>, BlobError> {
+        PointTreeN::from_parts(
+            &self.nodes,
+            &self.splits,
+            &self.indices,
+            &self.coords,
+            &self.bounds,
+        )
     }
 }
 
 /// A point and its input index, moved together by the partitioning.
 #[derive(Clone, Copy)]
-struct Item {
-    p: [f32; 3],
+struct Item<const D: usize, S> {
+    p: [S; D],
     index: u32,
 }
 
 /// Builds the tree over `points` (index = position).
 ///
 /// # Errors
-/// [`PointBuildError::NonFinite`] naming the first NaN or infinite point;
-/// [`PointBuildError::TooManyPoints`] past 2^30 - 1 points.
-pub fn build_points(
-    points: &[[f32; 3]],
+/// [`PointBuildError::NonFinite`] naming the first NaN or infinite
+/// coordinate; [`PointBuildError::TooManyPoints`] past [`MAX_POINTS`].
+pub fn build_points<const D: usize, S: Scalar>(
+    points: &[[S; D]],
     params: &PointParams,
-) -> Result<BuiltPoints, PointBuildError> {
-    if let Some(point) = points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
-        return Err(PointBuildError::NonFinite {
-            point,
-            coords: points[point],
-        });
+) -> Result<BuiltPoints<D, S>, PointBuildError> {
+    for (point, p) in points.iter().enumerate() {
+        if let Some(axis) = p.iter().position(|c| !c.is_finite()) {
+            return Err(PointBuildError::NonFinite {
+                point,
+                axis,
+                value: p[axis].to_f64(),
+            });
+        }
     }
-    if points.len() > MAX_NODE_FIELD as usize {
+    if points.len() > MAX_POINTS {
         return Err(PointBuildError::TooManyPoints {
             count: points.len(),
         });
     }
-    let mut items: Vec<Item> = points
+    let mut items: Vec<Item<D, S>> = points
         .iter()
         .enumerate()
         .map(|(i, &p)| Item { p, index: i as u32 })
         .collect();
     let params = PointParams {
-        leaf_size: params.leaf_size.max(1),
+        leaf_size: params.leaf_size.clamp(1, MAX_POINT_FIELD as usize),
         ..params.clone()
     };
     let tree = grow_parallel(&mut items, 0, 0, &params);
     Ok(BuiltPoints {
+        coords: leaf_major(&tree.nodes, &items),
         nodes: tree.nodes,
+        splits: tree.splits,
         indices: items.iter().map(|it| it.index).collect(),
-        points: items.iter().map(|it| it.p).collect(),
         bounds: tree.bounds,
         max_depth: tree.max_depth,
     })
 }
 
+/// The coordinates of `items` (in leaf order) as the kernel stores them:
+/// each leaf's run axis by axis.
+fn leaf_major<const D: usize, S: Scalar>(nodes: &[PointNode], items: &[Item<D, S>]) -> Vec<S> {
+    let mut coords = vec![S::ZERO; items.len() * D];
+    for n in nodes {
+        if let PointNodeKind::Leaf { offset, count } = n.kind() {
+            let (o, c) = (offset as usize, count as usize);
+            let block = &mut coords[o * D..(o + c) * D];
+            for (j, it) in items[o..o + c].iter().enumerate() {
+                for (a, &x) in it.p.iter().enumerate() {
+                    block[a * c + j] = x;
+                }
+            }
+        }
+    }
+    coords
+}
+
 /// A subtree in the depth-first layout with its root at 0; leaf offsets
 /// are already absolute.
-struct Subtree {
-    nodes: Vec<Node>,
-    bounds: Vec<Bounds>,
+struct Subtree<const D: usize, S> {
+    nodes: Vec<PointNode>,
+    splits: Vec<S>,
+    bounds: Vec<[[S; D]; 2]>,
     max_depth: u32,
 }
 
 /// The tight bounds of `items` (the zero box for none).
-fn bounds_of(items: &[Item]) -> Bounds {
+fn bounds_of<const D: usize, S: Scalar>(items: &[Item<D, S>]) -> [[S; D]; 2] {
     let Some(first) = items.first() else {
-        return Bounds {
-            min: [0.0; 3],
-            max: [0.0; 3],
-        };
+        return [[S::ZERO; D]; 2];
     };
-    let mut b = Bounds {
-        min: first.p,
-        max: first.p,
-    };
+    let [mut min, mut max] = [first.p; 2];
     for it in items {
-        for a in 0..3 {
-            b.min[a] = b.min[a].min(it.p[a]);
-            b.max[a] = b.max[a].max(it.p[a]);
+        for a in 0..D {
+            min[a] = min[a].min(it.p[a]);
+            max[a] = max[a].max(it.p[a]);
         }
     }
-    b
+    [min, max]
 }
 
 /// The split axis for a node, or `None` for a leaf: few points, too
 /// narrow (a pile of equal points always is), or at the depth limit.
-fn split_axis(len: usize, b: &Bounds, depth: u32, params: &PointParams) -> Option<Axis> {
+/// The widest axis; of equal extents the lowest.
+fn split_axis<const D: usize, S: Scalar>(
+    len: usize,
+    b: &[[S; D]; 2],
+    depth: u32,
+    params: &PointParams,
+) -> Option<usize> {
     if len <= params.leaf_size || depth >= MAX_DEPTH {
         return None;
     }
-    let extent = |a: usize| b.max[a] - b.min[a];
-    let widest = Axis::ALL.into_iter().max_by(|&a, &b| {
-        extent(a.index())
-            .total_cmp(&extent(b.index()))
-            .then(b.cmp(&a))
-    })?;
-    (extent(widest.index()) > params.min_width).then_some(widest)
+    let extent = |a: usize| b[1][a] - b[0][a];
+    let mut widest = 0;
+    for a in 1..D {
+        if extent(a) > extent(widest) {
+            widest = a;
+        }
+    }
+    (extent(widest).to_f64() > params.min_width).then_some(widest)
 }
 
-/// Partitions `items` at the median of `axis`: below `..mid`, above
+/// Partitions `items` at the median of axis `a`: below `..mid`, above
 /// `mid..`; returns `mid` and the split location (the median coordinate).
 ///
 /// Points equal to the median all go below when some point is left above:
@@ -200,8 +244,7 @@ fn split_axis(len: usize, b: &Bounds, depth: u32, params: &PointParams) -> Optio
 /// every subtree at distance 0 worth a visit) prunes the above side by the
 /// plane's gap. Measured on the `dupes` anchor set (one core): k = 1
 /// 0.8-0.9M -> 1.3-2.0M queries/s; no change on uniform points.
-fn partition(items: &mut [Item], axis: Axis) -> (usize, f32) {
-    let a = axis.index();
+fn partition<const D: usize, S: Scalar>(items: &mut [Item<D, S>], a: usize) -> (usize, S) {
     let mid = items.len() / 2;
     items.select_nth_unstable_by(mid, |x, y| x.p[a].total_cmp(&y.p[a]));
     let split = items[mid].p[a];
@@ -224,19 +267,24 @@ fn partition(items: &mut [Item], axis: Axis) -> (usize, f32) {
 
 /// A leaf over `items` at `offset`: its indices sorted (the kernel's tie
 /// rule relies on it) with their points.
-fn leaf(items: &mut [Item], offset: usize) -> Node {
+fn leaf<const D: usize, S>(items: &mut [Item<D, S>], offset: usize) -> PointNode {
     items.sort_unstable_by_key(|it| it.index);
-    // Counts and offsets fit: the point count was checked against 2^30.
-    Node::leaf(items.len() as u32, offset as u32).unwrap_or(Node::EMPTY_LEAF)
+    // Counts and offsets fit: the point count was checked against MAX_POINTS.
+    PointNode::leaf(offset as u32, items.len() as u32).unwrap_or(PointNode::EMPTY_LEAF)
+}
+
+/// An interior node splitting axis `a` (below D, so it fits).
+fn interior(a: usize, child: usize) -> PointNode {
+    PointNode::interior(a as u32, child as u32).unwrap_or(PointNode::EMPTY_LEAF)
 }
 
 /// Builds the subtree over `items` into `t`, its root at `slot`.
-fn grow(
-    items: &mut [Item],
+fn grow<const D: usize, S: Scalar>(
+    items: &mut [Item<D, S>],
     offset: usize,
     depth: u32,
     slot: usize,
-    t: &mut Subtree,
+    t: &mut Subtree<D, S>,
     params: &PointParams,
 ) {
     let b = bounds_of(items);
@@ -248,8 +296,10 @@ fn grow(
     };
     let (mid, split) = partition(items, axis);
     let child = t.nodes.len();
-    t.nodes[slot] = Node::interior(axis, split, child as u32).unwrap_or(Node::EMPTY_LEAF);
-    t.nodes.extend([Node::EMPTY_LEAF; 2]);
+    t.nodes[slot] = interior(axis, child);
+    t.splits[slot] = split;
+    t.nodes.extend([PointNode::EMPTY_LEAF; 2]);
+    t.splits.extend([S::ZERO; 2]);
     t.bounds.extend([b; 2]);
     let (below, above) = items.split_at_mut(mid);
     grow(below, offset, depth + 1, child, t, params);
@@ -258,12 +308,18 @@ fn grow(
 
 /// [`grow`] for a subtree rooted at 0, forking the two halves of large
 /// nodes onto rayon tasks.
-fn grow_parallel(items: &mut [Item], offset: usize, depth: u32, params: &PointParams) -> Subtree {
+fn grow_parallel<const D: usize, S: Scalar>(
+    items: &mut [Item<D, S>],
+    offset: usize,
+    depth: u32,
+    params: &PointParams,
+) -> Subtree<D, S> {
     let b = bounds_of(items);
     let axis = split_axis(items.len(), &b, depth, params);
     let (Some(axis), true) = (axis, items.len() >= params.parallel_min) else {
         let mut t = Subtree {
-            nodes: vec![Node::EMPTY_LEAF],
+            nodes: vec![PointNode::EMPTY_LEAF],
+            splits: vec![S::ZERO],
             bounds: vec![b],
             max_depth: 0,
         };
@@ -276,26 +332,27 @@ fn grow_parallel(items: &mut [Item], offset: usize, depth: u32, params: &PointPa
         || grow_parallel(below, offset, depth + 1, params),
         || grow_parallel(above, offset + mid, depth + 1, params),
     );
-    splice(
-        Node::interior(axis, split, 1).unwrap_or(Node::EMPTY_LEAF),
-        b,
-        depth,
-        below,
-        above,
-    )
+    splice(interior(axis, 1), split, b, depth, below, above)
 }
 
 /// Joins two subtrees under a new root. Depth-first, the below subtree's
 /// child pairs come first (right after the root's pair at 1, 2), then the
 /// above subtree's: a child at local `c >= 1` moves to `c - 1 + base`.
-fn splice(root: Node, b: Bounds, depth: u32, below: Subtree, above: Subtree) -> Subtree {
+fn splice<const D: usize, S: Scalar>(
+    root: PointNode,
+    split: S,
+    b: [[S; D]; 2],
+    depth: u32,
+    below: Subtree<D, S>,
+    above: Subtree<D, S>,
+) -> Subtree<D, S> {
     let below_base = 3;
     let above_base = below_base + below.nodes.len() - 1;
-    let moved = |n: Node, base: usize| match n.kind() {
-        kdray_kernel::NodeKind::Interior { axis, split, child } => {
-            Node::interior(axis, split, child - 1 + base as u32).unwrap_or(Node::EMPTY_LEAF)
+    let moved = |n: PointNode, base: usize| match n.kind() {
+        PointNodeKind::Interior { axis, child } => {
+            interior(axis as usize, child as usize - 1 + base)
         }
-        kdray_kernel::NodeKind::Leaf { .. } => n,
+        PointNodeKind::Leaf { .. } => n,
     };
     let mut nodes = Vec::with_capacity(below.nodes.len() + above.nodes.len() + 1);
     nodes.push(root);
@@ -303,12 +360,17 @@ fn splice(root: Node, b: Bounds, depth: u32, below: Subtree, above: Subtree) -> 
     nodes.push(moved(above.nodes[0], above_base));
     nodes.extend(below.nodes[1..].iter().map(|&n| moved(n, below_base)));
     nodes.extend(above.nodes[1..].iter().map(|&n| moved(n, above_base)));
+    let mut splits = Vec::with_capacity(nodes.len());
+    splits.extend([split, below.splits[0], above.splits[0]]);
+    splits.extend_from_slice(&below.splits[1..]);
+    splits.extend_from_slice(&above.splits[1..]);
     let mut bounds = Vec::with_capacity(nodes.len());
     bounds.extend([b, below.bounds[0], above.bounds[0]]);
     bounds.extend_from_slice(&below.bounds[1..]);
     bounds.extend_from_slice(&above.bounds[1..]);
     Subtree {
         nodes,
+        splits,
         bounds,
         max_depth: depth.max(below.max_depth).max(above.max_depth),
     }
@@ -344,7 +406,11 @@ mod tests {
         .unwrap();
         assert_eq!(serial, parallel);
         let tree = serial.view().unwrap();
-        assert_eq!(tree.points().len(), 5000);
+        assert_eq!(tree.len(), 5000);
+        // Every point is where its index says, after the leaf-major transpose.
+        for (at, &i) in tree.indices().iter().enumerate() {
+            assert_eq!(tree.point(at), Some(pts[i as usize]));
+        }
     }
 
     #[test]
@@ -358,11 +424,11 @@ mod tests {
 
     #[test]
     fn a_pile_is_one_leaf_and_empty_sets_build() {
-        let pile = vec![[1.0, 2.0, 3.0]; 1000];
+        let pile = vec![[1.0f32, 2.0, 3.0]; 1000];
         let t = build_points(&pile, &PointParams::default()).unwrap();
         assert_eq!(t.nodes.len(), 1);
         assert!(t.view().is_ok());
-        let empty = build_points(&[], &PointParams::default()).unwrap();
+        let empty = build_points::<3, f32>(&[], &PointParams::default()).unwrap();
         assert!(empty.view().is_ok());
     }
 }

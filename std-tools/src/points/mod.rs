@@ -8,16 +8,21 @@
 
 mod builder;
 
-pub use builder::{build_points, BuiltPoints, PointBuildError, PointParams};
+pub use builder::{build_points, BuiltPoints, PointBuildError, PointParams, MAX_POINTS};
 
-use kdray_kernel::{Neighbour, PointTree};
+use kdray_kernel::{Neighbour, PointTreeN, Scalar};
 use rayon::prelude::*;
 
 /// The `k` nearest points of every query, `k` records per query in query
 /// order (`.knn` layout, [`Neighbour::NONE`] where fewer than `k` points
 /// exist), on the current rayon pool. `out.len()` must be
 /// `queries.len() * k`; extra records are left as they are.
-pub fn knn_all(tree: &PointTree<'_>, queries: &[[f32; 3]], k: usize, out: &mut [Neighbour]) {
+pub fn knn_all<const D: usize, S: Scalar>(
+    tree: &PointTreeN<'_, D, S>,
+    queries: &[[S; D]],
+    k: usize,
+    out: &mut [Neighbour<S>],
+) {
     if k == 0 {
         return;
     }

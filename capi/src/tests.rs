@@ -12,7 +12,7 @@ use std::string::ToString;
 use std::vec::Vec;
 
 static CUBE: &kdray_kernel::Aligned<[u8]> = include_aligned!("../../kernel/golden/cube-v1.kdt");
-static GRID: &kdray_kernel::Aligned<[u8]> = include_aligned!("../tests/data/grid-100-v1.kdt");
+static GRID: &kdray_kernel::Aligned<[u8]> = include_aligned!("../tests/data/grid-100.kdt");
 
 const CLOSED: KdrayTriangleTree = KdrayTriangleTree {
     opaque: [0; KDRAY_HANDLE_WORDS],
@@ -379,7 +379,13 @@ fn point_queries_are_the_kernels() {
             );
             assert_eq!(s, KdrayStatus::Ok);
         }
-        let bits = |n: &KdrayNeighbour| Neighbour { index: n.index, d2: n.d2 }.bits();
+        let bits = |n: &KdrayNeighbour| {
+            Neighbour {
+                index: n.index,
+                d2: n.d2,
+            }
+            .bits()
+        };
         assert_eq!(
             bits(&n),
             tree.nearest(q).unwrap_or(Neighbour::NONE).bits(),

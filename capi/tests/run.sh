@@ -41,7 +41,7 @@ ldd "$out/capi_test_dynamic" | grep libkdray_capi.so >/dev/null
 ldd "$out/camera_dynamic" | grep libkdray_capi.so >/dev/null
 
 cube=kernel/golden/cube-v1.kdt
-grid=capi/tests/data/grid-100-v1.kdt
+grid=capi/tests/data/grid-100.kdt
 for kind in static dynamic; do
   d=$out/$kind
   "$out/capi_test_$kind" "$cube" "$grid" capi/tests/data/grid-100.pts "$d"

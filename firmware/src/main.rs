@@ -1,7 +1,7 @@
 //! # kdray-firmware: the proof that no panic path is reachable
 //!
 //! A `no_std`, `no_main` image that embeds a triangle blob (the kernel's
-//! golden cube) and a point blob (`capi/tests/data/grid-100-v1.kdt`),
+//! golden cube) and a point blob (`capi/tests/data/grid-100.kdt`),
 //! validates them, and runs the closest hit, any hit and k-nearest
 //! queries on inputs the optimiser cannot see ([`black_box`]).
 //!
@@ -29,7 +29,7 @@ use kdray_kernel::{include_aligned, Aligned, Hit, PointTree, Ray, TriangleTree};
 /// The triangle scene, in flash (`kdray build kernel/golden/cube.obj`).
 static SCENE: &Aligned<[u8]> = include_aligned!("../../kernel/golden/cube-v1.kdt");
 /// The point set (commands in `capi/tests/data/README.md`).
-static POINTS: &Aligned<[u8]> = include_aligned!("../../capi/tests/data/grid-100-v1.kdt");
+static POINTS: &Aligned<[u8]> = include_aligned!("../../capi/tests/data/grid-100.kdt");
 
 /// How many neighbours the k-nearest entry point returns.
 #[cfg(feature = "knn")]

@@ -53,7 +53,13 @@ impl<'o, S: Scalar> Knn<'o, S> {
             let mut end = len;
             while end > 1 {
                 end -= 1;
-                out.swap(0, end);
+                // Swapped through split_last_mut: `swap(0, end)` left a
+                // bounds check the optimiser could not remove (a panic path).
+                if let Some((last, rest)) = out.get_mut(..=end).and_then(|h| h.split_last_mut()) {
+                    if let Some(first) = rest.first_mut() {
+                        core::mem::swap(first, last);
+                    }
+                }
                 if let Some(h) = out.get_mut(..end) {
                     sift_down(h, 0);
                 }
@@ -72,16 +78,20 @@ impl<'o, S: Scalar> Knn<'o, S> {
             self.len += 1;
             self.len - 1
         };
-        // Shift the worse ones up one slot; j < k throughout.
+        // Shift the worse ones up one slot; j < k throughout. Read and
+        // written through `get`: the optimiser cannot see j < k, and an
+        // index would leave a panic path (firmware/ links only without one).
         while j > 0 {
-            let prev = self.out[j - 1];
+            let Some(&prev) = self.out.get(j - 1) else {
+                break;
+            };
             if !after(prev, n) {
                 break;
             }
-            self.out[j] = prev;
+            put(self.out, j, prev);
             j -= 1;
         }
-        self.out[j] = n;
+        put(self.out, j, n);
     }
 
     /// Heap insertion of a point known to belong in the answer.
@@ -89,7 +99,7 @@ impl<'o, S: Scalar> Knn<'o, S> {
         let k = self.out.len();
         if self.len == k {
             // Replace the worst (the root) and sift it down.
-            self.out[0] = n;
+            put(self.out, 0, n);
             sift_down(self.out, 0);
         } else {
             let mut j = self.len;
@@ -97,14 +107,16 @@ impl<'o, S: Scalar> Knn<'o, S> {
             // Sift up.
             while j > 0 {
                 let parent = (j - 1) / 2;
-                let p = self.out[parent];
+                let Some(&p) = self.out.get(parent) else {
+                    break;
+                };
                 if !after(n, p) {
                     break;
                 }
-                self.out[j] = p;
+                put(self.out, j, p);
                 j = parent;
             }
-            self.out[j] = n;
+            put(self.out, j, n);
         }
     }
 }
@@ -122,10 +134,19 @@ fn sift_down<S: Scalar>(h: &mut [Neighbour<S>], mut j: usize) {
         if !after(child, n) {
             break;
         }
-        h[j] = child;
+        put(h, j, child);
         j = c;
     }
-    h[j] = n;
+    put(h, j, n);
+}
+
+/// `h[j] = n` without a panic path (`j` is in range at every caller; the
+/// optimiser cannot always see it).
+#[inline(always)]
+fn put<S: Scalar>(h: &mut [Neighbour<S>], j: usize, n: Neighbour<S>) {
+    if let Some(slot) = h.get_mut(j) {
+        *slot = n;
+    }
 }
 
 impl<S: Scalar> Accumulator<S> for Knn<'_, S> {

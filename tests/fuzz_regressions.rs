@@ -85,3 +85,17 @@ fn tree_vs_brute_sah_misses_hit_at_origin_on_box_edge_subnormal_dir() {
         "../fuzz/regressions/tree_vs_brute/sah_misses_hit_at_origin_on_edge_subnormal_dir"
     ));
 }
+
+/// Found by `tree_vs_brute` in a CI run: 12 triangles, one a sliver
+/// reaching y = 7.6e11; the ray from (-10, -10, -10), outside the scene
+/// and heading away from it. The f32 edge test passes the sliver by
+/// rounding, and the plane's `t` snapped the origin onto its plane: brute
+/// force hit at t = 0, outside the scene, where the tree's walk never
+/// goes. The plane's `t` is now kept within the triangle's own extent
+/// along the ray, so both miss.
+#[test]
+fn tree_vs_brute_sah_hit_at_t0_outside_the_scene_on_huge_sliver() {
+    checks::tree_vs_brute(include_bytes!(
+        "../fuzz/regressions/tree_vs_brute/sah_hit_at_t0_outside_the_scene_on_huge_sliver"
+    ));
+}

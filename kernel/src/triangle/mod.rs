@@ -386,10 +386,39 @@ pub(crate) fn plane_t(org: &[f32; 3], dir: &[f32; 3], tri: &Triangle) -> f32 {
     if !plane {
         return f32::NAN;
     }
-    if num.abs() <= noise * l1(a) {
-        return 0.0;
-    }
-    (num / den) as f32
+    let t = if num.abs() <= noise * l1(a) {
+        0.0
+    } else {
+        num / den
+    };
+    // Kept within the triangle's own extent along the ray (its vertices'
+    // parameters on the dominant axis), where every point of the triangle
+    // lies: for a well-conditioned hit this changes nothing, but where the
+    // `f32` edge test passes a huge triangle by rounding, or the origin is
+    // snapped onto the plane, the hit point stays inside the triangle's
+    // slab, so inside the scene's, and the tree's walk finds it as brute
+    // force does (a fuzzed ray from outside the scene, heading away, hit a
+    // 7e11-long sliver at t = 0).
+    // (Components picked by a match, not an index: no bounds check, so
+    // no panic path in the firmware image.)
+    let pick = |v: [f64; 3]| match dominant_axis(dir) {
+        0 => v[0],
+        1 => v[1],
+        _ => v[2],
+    };
+    let h = p.map(|v| (pick(v) - pick(o)) / pick(d));
+    let lo = h[0].min(h[1]).min(h[2]);
+    let hi = h[0].max(h[1]).max(h[2]);
+    // Compared, not `max`/`min`: a `t` in range keeps its bits (and the
+    // sign of a zero).
+    let t = if t < lo {
+        lo
+    } else if t > hi {
+        hi
+    } else {
+        t
+    };
+    t as f32
 }
 
 /// [`plane_t`]'s zero threshold relative to the operands, `2^-48`.

@@ -99,3 +99,15 @@ fn tree_vs_brute_sah_hit_at_t0_outside_the_scene_on_huge_sliver() {
         "../fuzz/regressions/tree_vs_brute/sah_hit_at_t0_outside_the_scene_on_huge_sliver"
     ));
 }
+
+/// Found by `tree_vs_brute` in a CI run: the same fault off the ray's
+/// dominant axis (a sliver reaching x = 6e12; the origin inside the
+/// sliver's extent along y, the dominant axis, but below its z range).
+/// The plane's `t` is kept within the ray's interval through the
+/// triangle's whole box, on every axis.
+#[test]
+fn tree_vs_brute_sah_hit_at_t0_off_the_dominant_axis_on_huge_sliver() {
+    checks::tree_vs_brute(include_bytes!(
+        "../fuzz/regressions/tree_vs_brute/sah_hit_at_t0_off_the_dominant_axis_on_huge_sliver"
+    ));
+}

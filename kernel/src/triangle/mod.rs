@@ -391,24 +391,36 @@ pub(crate) fn plane_t(org: &[f32; 3], dir: &[f32; 3], tri: &Triangle) -> f32 {
     } else {
         num / den
     };
-    // Kept within the triangle's own extent along the ray (its vertices'
-    // parameters on the dominant axis), where every point of the triangle
-    // lies: for a well-conditioned hit this changes nothing, but where the
-    // `f32` edge test passes a huge triangle by rounding, or the origin is
-    // snapped onto the plane, the hit point stays inside the triangle's
-    // slab, so inside the scene's, and the tree's walk finds it as brute
-    // force does (a fuzzed ray from outside the scene, heading away, hit a
-    // 7e11-long sliver at t = 0).
-    // (Components picked by a match, not an index: no bounds check, so
-    // no panic path in the firmware image.)
-    let pick = |v: [f64; 3]| match dominant_axis(dir) {
-        0 => v[0],
-        1 => v[1],
-        _ => v[2],
-    };
-    let h = p.map(|v| (pick(v) - pick(o)) / pick(d));
-    let lo = h[0].min(h[1]).min(h[2]);
-    let hi = h[0].max(h[1]).max(h[2]);
+    // Kept within the ray's interval through the triangle's bounding box,
+    // where every point of the triangle lies: for a well-conditioned hit
+    // this changes nothing, but where the `f32` edge test passes a huge
+    // sliver by rounding, or the origin is snapped onto its plane, the hit
+    // point stays in the triangle's box, so in the scene's, and the tree's
+    // walk finds it as brute force does (fuzzed rays from outside the
+    // scene hit 1e12-long slivers at t = 0 by brute force alone). The box
+    // is widened by [`BOX_MARGIN`] for the rounding of `f32` rays aimed at
+    // a vertex or an edge; a ray that misses even that box hits nothing.
+    let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
+    for a in 0..3 {
+        let (bmin, bmax) = (
+            p[0][a].min(p[1][a]).min(p[2][a]),
+            p[0][a].max(p[1][a]).max(p[2][a]),
+        );
+        let margin = BOX_MARGIN * (bmin.abs() + bmax.abs() + o[a].abs());
+        let (bmin, bmax) = (bmin - margin, bmax + margin);
+        if d[a] == 0.0 {
+            if o[a] < bmin || o[a] > bmax {
+                return f32::NAN;
+            }
+            continue;
+        }
+        let (t1, t2) = ((bmin - o[a]) / d[a], (bmax - o[a]) / d[a]);
+        lo = lo.max(t1.min(t2));
+        hi = hi.min(t1.max(t2));
+    }
+    if lo > hi {
+        return f32::NAN;
+    }
     // Compared, not `max`/`min`: a `t` in range keeps its bits (and the
     // sign of a zero).
     let t = if t < lo {
@@ -420,6 +432,13 @@ pub(crate) fn plane_t(org: &[f32; 3], dir: &[f32; 3], tri: &Triangle) -> f32 {
     };
     t as f32
 }
+
+/// How far outside its bounding box [`plane_t`] still takes a triangle's
+/// hit point, relative to the coordinates (`2^-18`, 32 `f32` ulps): an
+/// `f32` ray aimed at a vertex or an edge passes it by a few ulps, and the
+/// watertight test may credit the hit to a neighbour whose box it just
+/// misses.
+const BOX_MARGIN: f64 = 1.0 / 262_144.0;
 
 /// [`plane_t`]'s zero threshold relative to the operands, `2^-48`.
 pub(crate) const PLANE_NOISE: f64 = 1.0 / 281_474_976_710_656.0;

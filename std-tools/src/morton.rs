@@ -15,10 +15,10 @@ const BITS: u32 = 21;
 pub fn morton_key(p: [f32; 3], bounds: &Bounds) -> u64 {
     let cells = f64::from((1u32 << BITS) - 1);
     let mut key = 0u64;
-    for a in 0..3 {
+    for (a, &x) in p.iter().enumerate() {
         let (lo, hi) = (f64::from(bounds.min[a]), f64::from(bounds.max[a]));
         let unit = if hi > lo {
-            (f64::from(p[a]) - lo) / (hi - lo)
+            (f64::from(x) - lo) / (hi - lo)
         } else {
             0.0
         };

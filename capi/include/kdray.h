@@ -11,6 +11,9 @@
 // view on 64-bit targets, with space to grow).
 #define KDRAY_HANDLE_WORDS 16
 
+// The largest D the library reads.
+#define KDRAY_MAX_DIM 16
+
 // The `prim_id` of a miss.
 #define KDRAY_MISS 4294967295
 
@@ -38,6 +41,9 @@ typedef enum {
   KDRAY_STATUS_NOT_OPEN = 5,
   // The output buffer is too small (`kdray_within`).
   KDRAY_STATUS_BUFFER_TOO_SMALL = 6,
+  // A point query's dimension or scalar type is not its tree's
+  // (`kdray_points_shape` says what the tree holds).
+  KDRAY_STATUS_WRONG_SHAPE = 7,
 } KdrayStatus;
 
 // An opened point tree, as [`KdrayTriangleTree`] is for triangles; opened
@@ -47,16 +53,28 @@ typedef struct {
   uint64_t opaque[KDRAY_HANDLE_WORDS];
 } KdrayPointTree;
 
-// One neighbour: 8 bytes, the record of a `.knn` file. A missing
-// neighbour (fewer points than asked for) is `index = 0xFFFFFFFF`,
-// `d2 = INFINITY`.
+// One neighbour of a `float` tree: 8 bytes, the record of a `.knn` file.
+// A missing neighbour (fewer points than asked for) is
+// `index = 0xFFFFFFFF`, `d2 = INFINITY`.
 typedef struct {
   // The point's index in the builder's input.
   uint32_t index;
-  // Its squared Euclidean distance to the query (`dx*dx + dy*dy + dz*dz`
-  // in `float`, summed left to right).
+  // Its squared Euclidean distance to the query (the squared coordinate
+  // differences in `float`, summed axis by axis from the first).
   float d2;
 } KdrayNeighbour;
+
+// One neighbour of a `double` tree: 16 bytes, as [`KdrayNeighbour`] with
+// the distance in `double` (a missing one is `index = 0xFFFFFFFF`,
+// `d2 = INFINITY`).
+typedef struct {
+  // The point's index in the builder's input.
+  uint32_t index;
+  // Written as 0.
+  uint32_t reserved;
+  // Its squared Euclidean distance to the query, in `double`.
+  double d2;
+} KdrayNeighbour64;
 
 // An opened triangle tree. Declare one (on the stack, in a struct, as a
 // global) and pass its address to `kdray_triangles_open`.
@@ -252,7 +270,8 @@ const char *kdray_status_text(int32_t status);
 const char *kdray_version(void);
 
 // Opens the point-tree blob `blob[0..len]` (written by `kdray
-// build-points`) into `*tree`, validating all of it.
+// build-points`, any `--dim` from 1 to 16, `float` or `--f64`) into
+// `*tree`, validating all of it. `kdray_points_shape` then says which.
 //
 // # Preconditions
 // As `kdray_triangles_open`, for a point-tree blob (a triangle blob is
@@ -266,29 +285,136 @@ KdrayStatus kdray_points_open(KdrayPointTree *tree,
                               char *message,
                               size_t message_len);
 
-// The nearest point to `query[0..3]`, written to `*nearest`: smallest
+// The shape of an opened point tree: `*dim` (1 to 16) and
+// `*scalar_bytes` (4 for `float`, 8 for `double`), the values its queries
+// must name.
+//
+// # Preconditions
+// - `tree`: opened by `kdray_points_open`, its blob alive and unchanged.
+// - `dim`, `scalar_bytes`: non-null, aligned for `size_t`.
+//
+// # Safety
+// As the preconditions.
+KdrayStatus kdray_points_shape(const KdrayPointTree *tree, size_t *dim, size_t *scalar_bytes);
+
+// The nearest point to `query[0..dim]`, written to `*nearest`: smallest
 // squared distance, at equal distance the lowest index (exactly as brute
 // force). An empty tree or a query with a NaN coordinate gives the
 // missing-neighbour record.
 //
 // # Preconditions
-// - `tree`: opened by `kdray_points_open`, its blob alive and unchanged.
-// - `query`: non-null, 4-byte aligned, 3 floats (x, y, z).
+// - `tree`: opened by `kdray_points_open`, its blob alive and unchanged;
+//   a `float` tree of `dim` dimensions (else `KDRAY_STATUS_WRONG_SHAPE`).
+// - `query`: non-null, 4-byte aligned, `dim` readable floats.
 // - `nearest`: non-null, 4-byte aligned.
 //
 // # Safety
 // As the preconditions.
-KdrayStatus kdray_nearest(const KdrayPointTree *tree, const float *query, KdrayNeighbour *nearest);
+KdrayStatus kdray_nearest_f32(const KdrayPointTree *tree,
+                              const float *query,
+                              size_t dim,
+                              KdrayNeighbour *nearest);
 
-// The `k` nearest points to `query[0..3]`, written to `out[0..*found]`
+// `kdray_nearest_f32` for a `double` tree: `double` coordinates and
+// distance.
+//
+// # Preconditions
+// As `kdray_nearest_f32`, with `double`s (8-byte aligned) and a
+// `KdrayNeighbour64` record.
+//
+// # Safety
+// As the preconditions.
+KdrayStatus kdray_nearest_f64(const KdrayPointTree *tree,
+                              const double *query,
+                              size_t dim,
+                              KdrayNeighbour64 *nearest);
+
+// The `k` nearest points to `query[0..dim]`, written to `out[0..*found]`
 // nearest first (equal distance: lower index first), exactly as brute
 // force; `*found` is `k` unless the tree has fewer points. `out[*found..k]`
 // is left unchanged. `k == 0` or a NaN query finds nothing.
 //
 // # Preconditions
-// - `tree`, `query`: as `kdray_nearest`.
+// - `tree`, `query`, `dim`: as `kdray_nearest_f32`.
 // - `out`: non-null, 4-byte aligned, `k` writable records.
 // - `found`: non-null, aligned for `size_t`.
+//
+// # Safety
+// As the preconditions.
+KdrayStatus kdray_knn_f32(const KdrayPointTree *tree,
+                          const float *query,
+                          size_t dim,
+                          size_t k,
+                          KdrayNeighbour *out,
+                          size_t *found);
+
+// `kdray_knn_f32` for a `double` tree.
+//
+// # Preconditions
+// As `kdray_knn_f32`, with `double`s (8-byte aligned) and
+// `KdrayNeighbour64` records.
+//
+// # Safety
+// As the preconditions.
+KdrayStatus kdray_knn_f64(const KdrayPointTree *tree,
+                          const double *query,
+                          size_t dim,
+                          size_t k,
+                          KdrayNeighbour64 *out,
+                          size_t *found);
+
+// Every point at squared distance `<= r2` from `query[0..dim]`, written
+// to `out[0..*found]` nearest first (equal distance: lower index first),
+// exactly as brute force.
+//
+// If more than `capacity` points are in range, returns
+// `KDRAY_STATUS_BUFFER_TOO_SMALL` with `*found` set to how many there are
+// (the capacity that suffices); `out` then holds some of them, unordered.
+//
+// # Preconditions
+// - `tree`, `query`, `dim`: as `kdray_nearest_f32`.
+// - `out`: non-null, 4-byte aligned, `capacity` writable records.
+// - `found`: non-null, aligned for `size_t`.
+//
+// # Safety
+// As the preconditions.
+KdrayStatus kdray_within_f32(const KdrayPointTree *tree,
+                             const float *query,
+                             size_t dim,
+                             float r2,
+                             KdrayNeighbour *out,
+                             size_t capacity,
+                             size_t *found);
+
+// `kdray_within_f32` for a `double` tree.
+//
+// # Preconditions
+// As `kdray_within_f32`, with `double`s (8-byte aligned) and
+// `KdrayNeighbour64` records.
+//
+// # Safety
+// As the preconditions.
+KdrayStatus kdray_within_f64(const KdrayPointTree *tree,
+                             const double *query,
+                             size_t dim,
+                             double r2,
+                             KdrayNeighbour64 *out,
+                             size_t capacity,
+                             size_t *found);
+
+// `kdray_nearest_f32` in 3-D: the nearest point to `query[0..3]`.
+//
+// # Preconditions
+// As `kdray_nearest_f32` with `dim = 3`.
+//
+// # Safety
+// As the preconditions.
+KdrayStatus kdray_nearest(const KdrayPointTree *tree, const float *query, KdrayNeighbour *nearest);
+
+// `kdray_knn_f32` in 3-D: the `k` nearest points to `query[0..3]`.
+//
+// # Preconditions
+// As `kdray_knn_f32` with `dim = 3`.
 //
 // # Safety
 // As the preconditions.
@@ -298,18 +424,10 @@ KdrayStatus kdray_knn(const KdrayPointTree *tree,
                       KdrayNeighbour *out,
                       size_t *found);
 
-// Every point at squared distance `<= r2` from `query[0..3]`, written to
-// `out[0..*found]` nearest first (equal distance: lower index first),
-// exactly as brute force.
-//
-// If more than `capacity` points are in range, returns
-// `KDRAY_STATUS_BUFFER_TOO_SMALL` with `*found` set to how many there are
-// (the capacity that suffices); `out` then holds some of them, unordered.
+// `kdray_within_f32` in 3-D: every point within `r2` of `query[0..3]`.
 //
 // # Preconditions
-// - `tree`, `query`: as `kdray_nearest`.
-// - `out`: non-null, 4-byte aligned, `capacity` writable records.
-// - `found`: non-null, aligned for `size_t`.
+// As `kdray_within_f32` with `dim = 3`.
 //
 // # Safety
 // As the preconditions.

@@ -9,7 +9,8 @@
 use crate::message::write_message;
 use crate::{check_count, check_ptr, status, status_text, KdrayStatus};
 use core::ffi::c_char;
-use kdray_kernel::{BlobError, PointTree, TriangleTree};
+use core::fmt;
+use kdray_kernel::{BlobError, PointTreeN, Scalar, TriangleTree};
 
 /// The size of a tree handle in 64-bit words (room for the kernel's tree
 /// view on 64-bit targets, with space to grow).
@@ -44,109 +45,176 @@ struct Tagged<T> {
     tree: T,
 }
 
-/// A tree the C API can keep in a handle.
-pub(crate) trait Handle: Sized {
-    /// The kernel view the handle holds.
-    type Tree: Copy;
-    /// The tag word of an opened handle of this kind (ASCII, so a dump reads it).
+/// A kernel view the C API can keep in a handle.
+pub(crate) trait View: Copy {
+    /// The C handle type that holds it.
+    type Handle;
+    /// The tag word of a handle holding this view (ASCII, so a dump reads it).
     const TAG: u64;
-    /// The kernel's validating loader for this kind.
-    fn from_bytes(bytes: &'static [u8]) -> Result<Self::Tree, BlobError>;
+    /// The kernel's validating loader for this view.
+    fn from_bytes(bytes: &'static [u8]) -> Result<Self, BlobError>;
+    /// What a handle of the right C type but another tag is: not open, or
+    /// (a point tree of another shape) the wrong shape for the call.
+    fn mismatch(_tag: u64) -> KdrayStatus {
+        KdrayStatus::NotOpen
+    }
 }
 
-impl Handle for KdrayTriangleTree {
-    type Tree = TriangleTree<'static>;
+impl View for TriangleTree<'static> {
+    type Handle = KdrayTriangleTree;
     const TAG: u64 = u64::from_le_bytes(*b"kdrayTRI");
-    fn from_bytes(bytes: &'static [u8]) -> Result<Self::Tree, BlobError> {
+    fn from_bytes(bytes: &'static [u8]) -> Result<Self, BlobError> {
         TriangleTree::from_bytes(bytes)
     }
 }
 
-impl Handle for KdrayPointTree {
-    type Tree = PointTree<'static>;
-    const TAG: u64 = u64::from_le_bytes(*b"kdrayPTS");
-    fn from_bytes(bytes: &'static [u8]) -> Result<Self::Tree, BlobError> {
-        PointTree::from_bytes(bytes)
+/// The first six bytes of every point handle's tag; the last two are D
+/// and the scalar's size.
+const POINT_TAG: [u8; 6] = *b"kdrayP";
+
+impl<const D: usize, S: Scalar> View for PointTreeN<'static, D, S> {
+    type Handle = KdrayPointTree;
+    #[allow(clippy::cast_possible_truncation)] // D <= 16, S::BYTES <= 8
+    const TAG: u64 = {
+        let [a, b, c, d, e, f] = POINT_TAG;
+        u64::from_le_bytes([a, b, c, d, e, f, D as u8, S::BYTES as u8])
+    };
+    fn from_bytes(bytes: &'static [u8]) -> Result<Self, BlobError> {
+        PointTreeN::from_bytes(bytes)
+    }
+    fn mismatch(tag: u64) -> KdrayStatus {
+        if tag.to_le_bytes()[..6] == POINT_TAG {
+            KdrayStatus::WrongShape
+        } else {
+            KdrayStatus::NotOpen
+        }
     }
 }
-
-// Each view fits its handle, and the handle's alignment suffices.
-const _: () = {
-    use core::mem::{align_of, size_of};
-    assert!(size_of::<Tagged<TriangleTree<'static>>>() <= size_of::<KdrayTriangleTree>());
-    assert!(size_of::<Tagged<PointTree<'static>>>() <= size_of::<KdrayPointTree>());
-    assert!(align_of::<Tagged<TriangleTree<'static>>>() <= align_of::<KdrayTriangleTree>());
-    assert!(align_of::<Tagged<PointTree<'static>>>() <= align_of::<KdrayPointTree>());
-};
 
 /// Marks `handle` not open (so a failed open cannot leave an old tree
 /// readable). The pointer was checked by the caller.
 ///
 /// # Safety
-/// `handle` is non-null, aligned, and points to a writable `H`.
-unsafe fn close<H: Handle>(handle: *mut H) {
+/// `handle` is non-null, aligned, and points to a writable handle.
+unsafe fn close<H>(handle: *mut H) {
     // SAFETY: the caller's contract; the tag is the handle's first word.
     unsafe { handle.cast::<u64>().write(0) };
 }
 
-/// Stores `tree` in `handle` with the kind's tag.
+/// Stores `tree` in `handle` with the view's tag.
 ///
 /// # Safety
-/// `handle` is non-null, aligned, and points to a writable `H`; the bytes
-/// `tree` borrows stay alive and unchanged while the handle is used (the
-/// open functions' precondition, which is why `'static` is acceptable).
-unsafe fn store<H: Handle>(handle: *mut H, tree: H::Tree) {
-    let tagged = Tagged { tag: H::TAG, tree };
-    // SAFETY: `Tagged<H::Tree>` fits in `H` with no stricter alignment
+/// `handle` is non-null, aligned, and points to a writable handle; the
+/// bytes `tree` borrows stay alive and unchanged while the handle is used
+/// (the open functions' precondition, which is why `'static` is acceptable).
+pub(crate) unsafe fn store<V: View>(handle: *mut V::Handle, tree: V) {
+    const {
+        use core::mem::{align_of, size_of};
+        assert!(size_of::<Tagged<V>>() <= size_of::<V::Handle>());
+        assert!(align_of::<Tagged<V>>() <= align_of::<V::Handle>());
+    }
+    let tagged = Tagged { tag: V::TAG, tree };
+    // SAFETY: `Tagged<V>` fits in the handle with no stricter alignment
     // (checked at compile time above), and `handle` is writable.
-    unsafe { handle.cast::<Tagged<H::Tree>>().write(tagged) };
+    unsafe { handle.cast::<Tagged<V>>().write(tagged) };
 }
 
-/// The tree in an opened handle: `NULL_POINTER`, `MISALIGNED` or
-/// `NOT_OPEN` otherwise.
+/// The tree in an opened handle: `NULL_POINTER`, `MISALIGNED`,
+/// `NOT_OPEN` or (a point tree of another shape) `WRONG_SHAPE` otherwise.
 ///
 /// # Safety
-/// If `handle` is non-null and aligned, it points to a readable `H`; if
-/// its tag is `H::TAG` it was written by [`store`] and the blob it borrows
+/// If `handle` is non-null and aligned, it points to a readable handle; if
+/// its tag is `V::TAG` it was written by [`store`] and the blob it borrows
 /// is still alive and unchanged (the queries' precondition).
-pub(crate) unsafe fn load<H: Handle>(handle: *const H) -> Result<H::Tree, KdrayStatus> {
+pub(crate) unsafe fn load<V: View>(handle: *const V::Handle) -> Result<V, KdrayStatus> {
     check_ptr(handle)?;
     // SAFETY: checked non-null and aligned; readable by the contract.
     let tag = unsafe { handle.cast::<u64>().read() };
-    if tag != H::TAG {
-        return Err(KdrayStatus::NotOpen);
+    if tag != V::TAG {
+        return Err(V::mismatch(tag));
     }
-    // SAFETY: the tag says `store` wrote a `Tagged<H::Tree>` here.
-    Ok(unsafe { handle.cast::<Tagged<H::Tree>>().read().tree })
+    // SAFETY: the tag says `store` wrote a `Tagged<V>` here.
+    Ok(unsafe { handle.cast::<Tagged<V>>().read().tree })
+}
+
+/// The D and scalar size of the point tree in an opened handle (from its
+/// tag): `NULL_POINTER`, `MISALIGNED` or `NOT_OPEN` otherwise.
+///
+/// # Safety
+/// If `handle` is non-null and aligned, it points to a readable handle.
+pub(crate) unsafe fn point_shape(
+    handle: *const KdrayPointTree,
+) -> Result<(usize, usize), KdrayStatus> {
+    check_ptr(handle)?;
+    // SAFETY: checked non-null and aligned; readable by the contract.
+    let tag = unsafe { handle.cast::<u64>().read() }.to_le_bytes();
+    match tag {
+        [a, b, c, d, e, f, dim, bytes] if [a, b, c, d, e, f] == POINT_TAG => {
+            Ok((usize::from(dim), usize::from(bytes)))
+        }
+        _ => Err(KdrayStatus::NotOpen),
+    }
+}
+
+/// Checks the handle pointer and marks it not open, the first step of
+/// every open function.
+///
+/// # Safety
+/// If non-null and aligned, `handle` points to a writable handle.
+pub(crate) unsafe fn begin_open<H>(handle: *mut H) -> Result<(), KdrayStatus> {
+    check_ptr(handle.cast_const())?;
+    // SAFETY: checked non-null and aligned; writable by the contract.
+    unsafe { close(handle) };
+    Ok(())
 }
 
 /// The body of the open functions: validates `blob[0..len]` into
-/// `*handle`, or marks it not open and writes why to `message`
+/// `*handle` as a `V`, or marks it not open and writes why to `message`
 /// (`BlobError`'s sentence, or the status text for a bad argument).
 ///
 /// # Safety
 /// As `kdray_triangles_open`'s preconditions.
-pub(crate) unsafe fn open<H: Handle>(
-    handle: *mut H,
+pub(crate) unsafe fn open<V: View>(
+    handle: *mut V::Handle,
     blob: *const u8,
     len: usize,
     message: *mut c_char,
     message_len: usize,
 ) -> KdrayStatus {
+    // SAFETY: this function's contract.
+    unsafe {
+        open_with(handle, blob, len, message, message_len, |bytes| {
+            let tree = V::from_bytes(bytes)?;
+            store(handle, tree);
+            Ok::<(), BlobError>(())
+        })
+    }
+}
+
+/// [`open`] with the loading step given: `load` validates the blob and
+/// stores the view in the (checked, closed) handle.
+///
+/// # Safety
+/// As `kdray_triangles_open`'s preconditions; `load` stores only into
+/// `handle`.
+pub(crate) unsafe fn open_with<H, E: fmt::Display>(
+    handle: *mut H,
+    blob: *const u8,
+    len: usize,
+    message: *mut c_char,
+    message_len: usize,
+    load: impl FnOnce(&'static [u8]) -> Result<(), E>,
+) -> KdrayStatus {
     let opened = (|| {
-        check_ptr(handle.cast_const())?;
-        // SAFETY: checked non-null and aligned; writable by the contract.
-        unsafe { close(handle) };
+        // SAFETY: the handle's contract.
+        unsafe { begin_open(handle) }?;
         // SAFETY: the blob's contract (`len` readable bytes).
         let bytes = unsafe { blob_slice(blob, len) }?;
-        let tree = H::from_bytes(bytes).map_err(|e| {
+        load(bytes).map_err(|e| {
             // SAFETY: `message`'s contract.
             unsafe { write_message(message, message_len, e) };
             KdrayStatus::InvalidBlob
-        })?;
-        // SAFETY: checked above; the blob outlives the handle by contract.
-        unsafe { store(handle, tree) };
-        Ok(())
+        })
     })();
     let s = status(opened);
     if s != KdrayStatus::InvalidBlob {

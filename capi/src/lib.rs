@@ -28,7 +28,11 @@ mod points;
 mod rays;
 
 pub use handle::{KdrayPointTree, KdrayTriangleTree, KDRAY_HANDLE_WORDS};
-pub use points::{kdray_knn, kdray_nearest, kdray_points_open, kdray_within, KdrayNeighbour};
+pub use points::{
+    kdray_knn, kdray_knn_f32, kdray_knn_f64, kdray_nearest, kdray_nearest_f32, kdray_nearest_f64,
+    kdray_points_open, kdray_points_shape, kdray_within, kdray_within_f32, kdray_within_f64,
+    KdrayNeighbour, KdrayNeighbour64, KDRAY_MAX_DIM,
+};
 pub use rays::{
     kdray_any_hit, kdray_any_hit16, kdray_any_hit4, kdray_any_hit8, kdray_any_hits,
     kdray_closest_hit, kdray_closest_hit16, kdray_closest_hit4, kdray_closest_hit8,
@@ -58,6 +62,9 @@ pub enum KdrayStatus {
     NotOpen = 5,
     /// The output buffer is too small (`kdray_within`).
     BufferTooSmall = 6,
+    /// A point query's dimension or scalar type is not its tree's
+    /// (`kdray_points_shape` says what the tree holds).
+    WrongShape = 7,
 }
 
 /// A static, NUL-terminated sentence naming the `KdrayStatus` value `status`.
@@ -81,6 +88,7 @@ fn status_text(code: i32) -> &'static core::ffi::CStr {
         4 => c"the blob was refused by validation",
         5 => c"the tree handle was not opened successfully",
         6 => c"the output buffer is too small",
+        7 => c"the query's dimension or scalar type is not the point tree's",
         _ => c"unknown status",
     }
 }

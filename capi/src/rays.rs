@@ -170,7 +170,7 @@ pub unsafe extern "C" fn kdray_triangles_open(
     message_len: usize,
 ) -> KdrayStatus {
     // SAFETY: this function's contract.
-    unsafe { handle::open(tree, blob, len, message, message_len) }
+    unsafe { handle::open::<TriangleTree>(tree, blob, len, message, message_len) }
 }
 
 /// The closest hit of `*ray` in `*tree`, written to `*hit` (a miss record
@@ -192,7 +192,7 @@ pub unsafe extern "C" fn kdray_closest_hit(
 ) -> KdrayStatus {
     status((|| {
         // SAFETY: `tree`'s contract.
-        let t = unsafe { handle::load(tree) }?;
+        let t = unsafe { handle::load::<TriangleTree>(tree) }?;
         check_ptr(ray)?;
         check_ptr(hit.cast_const())?;
         // SAFETY: checked non-null and aligned; a whole record by contract.
@@ -220,7 +220,7 @@ pub unsafe extern "C" fn kdray_any_hit(
 ) -> KdrayStatus {
     status((|| {
         // SAFETY: `tree`'s contract.
-        let t = unsafe { handle::load(tree) }?;
+        let t = unsafe { handle::load::<TriangleTree>(tree) }?;
         check_ptr(ray)?;
         check_ptr(occluded.cast_const())?;
         // SAFETY: checked non-null and aligned; whole records by contract.
@@ -267,7 +267,7 @@ unsafe fn closest_packet<const N: usize>(
 ) -> KdrayStatus {
     status((|| {
         // SAFETY: the callers' contracts.
-        let t = unsafe { handle::load(tree) }?;
+        let t = unsafe { handle::load::<TriangleTree>(tree) }?;
         // SAFETY: the callers' contracts.
         let p = unsafe { read_packet(valid, rays) }?;
         check_ptr(hits.cast_const())?;
@@ -297,7 +297,7 @@ unsafe fn any_packet<const N: usize>(
 ) -> KdrayStatus {
     status((|| {
         // SAFETY: the callers' contracts.
-        let t = unsafe { handle::load(tree) }?;
+        let t = unsafe { handle::load::<TriangleTree>(tree) }?;
         // SAFETY: the callers' contracts.
         let p = unsafe { read_packet(valid, rays) }?;
         check_ptr(occluded.cast_const())?;
@@ -455,7 +455,7 @@ pub unsafe extern "C" fn kdray_closest_hits(
 ) -> KdrayStatus {
     status((|| {
         // SAFETY: `tree`'s contract.
-        let t = unsafe { handle::load(tree) }?;
+        let t = unsafe { handle::load::<TriangleTree>(tree) }?;
         check_ptr(rays)?;
         check_ptr(hits.cast_const())?;
         check_count::<KdrayRay>(count)?;
@@ -489,7 +489,7 @@ pub unsafe extern "C" fn kdray_any_hits(
     const CHUNK: usize = 64;
     status((|| {
         // SAFETY: `tree`'s contract.
-        let t = unsafe { handle::load(tree) }?;
+        let t = unsafe { handle::load::<TriangleTree>(tree) }?;
         check_ptr(rays)?;
         check_ptr(occluded.cast_const())?;
         check_count::<KdrayRay>(count)?;

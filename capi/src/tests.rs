@@ -417,3 +417,156 @@ fn point_queries_are_the_kernels() {
         }
     }
 }
+
+/// A `D`-dimensional `S` tree over deterministic points, as a blob.
+fn shaped_blob<const D: usize, S: kdray_kernel::Scalar>(
+    n: usize,
+    point: impl Fn(u64) -> S,
+) -> (kdray_tools::blob::Blob, Vec<[S; D]>) {
+    let pts: Vec<[S; D]> = (0..n)
+        .map(|i| core::array::from_fn(|a| point((i * D + a) as u64)))
+        .collect();
+    let built = kdray_tools::points::build_points(&pts, &Default::default()).unwrap();
+    (kdray_tools::blob::write_point_tree(&built).unwrap(), pts)
+}
+
+fn open_points(bytes: &[u8]) -> (KdrayStatus, KdrayPointTree, std::string::String) {
+    let mut h = KdrayPointTree {
+        opaque: [0; KDRAY_HANDLE_WORDS],
+    };
+    let mut msg = [0 as core::ffi::c_char; 256];
+    // SAFETY: a live handle, blob and message buffer.
+    let s =
+        unsafe { kdray_points_open(&mut h, bytes.as_ptr(), bytes.len(), msg.as_mut_ptr(), 256) };
+    // SAFETY: the library NUL-terminates the message.
+    let text = unsafe { CStr::from_ptr(msg.as_ptr()) }
+        .to_string_lossy()
+        .into_owned();
+    (s, h, text)
+}
+
+/// Halton-like coordinates in [0, 1): distinct, spread, reproducible.
+fn coord(i: u64) -> f64 {
+    (i.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 11) as f64 / (1u64 << 53) as f64
+}
+
+#[test]
+fn point_trees_of_any_shape_answer_as_the_kernel() {
+    let (blob, pts) = shaped_blob::<8, f64>(700, coord);
+    let (s, h, _) = open_points(blob.as_bytes());
+    assert_eq!(s, KdrayStatus::Ok);
+    let (mut dim, mut bytes) = (0, 0);
+    // SAFETY: live objects.
+    assert_eq!(
+        unsafe { kdray_points_shape(&h, &mut dim, &mut bytes) },
+        KdrayStatus::Ok
+    );
+    assert_eq!((dim, bytes), (8, 8));
+    let tree = blob.point_tree::<8, f64>().unwrap();
+    for (qi, q) in [pts[17], [0.5; 8], [3.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 9.0]]
+        .iter()
+        .enumerate()
+    {
+        let mut n = KdrayNeighbour64::zeroed();
+        let mut knn = [KdrayNeighbour64 {
+            index: 7,
+            reserved: 7,
+            d2: 7.0,
+        }; 12];
+        let mut within = [KdrayNeighbour64::zeroed(); 700];
+        let (mut fk, mut fw) = (99, 99);
+        // SAFETY: live objects of the lengths given.
+        unsafe {
+            assert_eq!(
+                kdray_nearest_f64(&h, q.as_ptr(), 8, &mut n),
+                KdrayStatus::Ok
+            );
+            let s = kdray_knn_f64(&h, q.as_ptr(), 8, 12, knn.as_mut_ptr(), &mut fk);
+            assert_eq!(s, KdrayStatus::Ok);
+            let s = kdray_within_f64(&h, q.as_ptr(), 8, 0.4, within.as_mut_ptr(), 700, &mut fw);
+            assert_eq!(s, KdrayStatus::Ok);
+        }
+        let want = tree.nearest(*q).unwrap();
+        assert_eq!(
+            (n.index, n.d2.to_bits(), n.reserved),
+            (want.index, want.d2.to_bits(), 0)
+        );
+        let mut wk = [Neighbour::<f64>::NONE; 12];
+        assert_eq!(fk, tree.knn(*q, &mut wk));
+        for (got, want) in knn.iter().zip(&wk) {
+            assert_eq!(
+                (got.index, got.d2.to_bits(), got.reserved),
+                (want.index, want.d2.to_bits(), 0)
+            );
+        }
+        let mut ww = [Neighbour::<f64>::NONE; 700];
+        assert_eq!(Ok(fw), tree.within(*q, 0.4, &mut ww), "query {qi}");
+        assert!(within[..fw]
+            .iter()
+            .map(|n| (n.index, n.d2.to_bits()))
+            .eq(ww[..fw].iter().map(|n| (n.index, n.d2.to_bits()))));
+    }
+}
+
+#[test]
+fn a_query_of_another_shape_is_refused() {
+    let (blob, _) = shaped_blob::<8, f64>(50, coord);
+    let (_, h8, _) = open_points(blob.as_bytes());
+    let (blob2, _) = shaped_blob::<2, f32>(50, |i| coord(i) as f32);
+    let (s, h2, _) = open_points(blob2.as_bytes());
+    assert_eq!(s, KdrayStatus::Ok);
+    let q32 = [0.5f32; 17];
+    let q64 = [0.5f64; 17];
+    let mut n32 = KdrayNeighbour::zeroed();
+    let mut n64 = KdrayNeighbour64::zeroed();
+    let closed = KdrayPointTree {
+        opaque: [0; KDRAY_HANDLE_WORDS],
+    };
+    // SAFETY: live objects, queries of 17 scalars.
+    unsafe {
+        use KdrayStatus::{NotOpen, Ok as Fine, WrongShape};
+        assert_eq!(kdray_nearest_f64(&h8, q64.as_ptr(), 8, &mut n64), Fine);
+        assert_eq!(
+            kdray_nearest_f64(&h8, q64.as_ptr(), 3, &mut n64),
+            WrongShape
+        );
+        assert_eq!(
+            kdray_nearest_f32(&h8, q32.as_ptr(), 8, &mut n32),
+            WrongShape
+        );
+        assert_eq!(kdray_nearest(&h8, q32.as_ptr(), &mut n32), WrongShape);
+        assert_eq!(kdray_nearest_f32(&h2, q32.as_ptr(), 2, &mut n32), Fine);
+        assert_eq!(
+            kdray_nearest_f64(&h2, q64.as_ptr(), 2, &mut n64),
+            WrongShape
+        );
+        for dim in [0, 17, usize::MAX] {
+            assert_eq!(
+                kdray_nearest_f32(&h2, q32.as_ptr(), dim, &mut n32),
+                WrongShape
+            );
+            assert_eq!(
+                kdray_nearest_f32(&closed, q32.as_ptr(), dim, &mut n32),
+                NotOpen
+            );
+        }
+        assert_eq!(
+            kdray_nearest_f32(&closed, q32.as_ptr(), 2, &mut n32),
+            NotOpen
+        );
+        let (mut d, mut b) = (0, 0);
+        assert_eq!(kdray_points_shape(&closed, &mut d, &mut b), NotOpen);
+        assert_eq!(kdray_points_shape(&h2, &mut d, &mut b), Fine);
+        assert_eq!((d, b), (2, 4));
+        let text = CStr::from_ptr(kdray_status_text(WrongShape as i32));
+        assert!(text.to_str().unwrap().contains("dimension"));
+    }
+    // A dimension the library is not compiled for: refused by name.
+    let (blob20, _) = shaped_blob::<20, f32>(40, |i| coord(i) as f32);
+    let (s, _, msg) = open_points(blob20.as_bytes());
+    assert_eq!(s, KdrayStatus::InvalidBlob);
+    assert!(
+        msg.contains("20-dimensional") && msg.contains("1 to 16"),
+        "{msg}"
+    );
+}

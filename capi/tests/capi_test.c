@@ -207,6 +207,18 @@ static void check_points(const uint8_t *blob, size_t len, const float *pts, size
     fprintf(stderr, "open points: %s\n", msg);
     exit(1);
   }
+  /* Its shape, and queries of another shape refused. */
+  size_t dim = 0, scalar_bytes = 0;
+  CHECK(kdray_points_shape(&tree, &dim, &scalar_bytes) == KDRAY_STATUS_OK && dim == 3 && scalar_bytes == 4,
+        "shape %zu %zu", dim, scalar_bytes);
+  {
+    const double q64[3] = {0.5, 0.5, 0.5};
+    const float q32[4] = {0.5f, 0.5f, 0.5f, 0.5f};
+    KdrayNeighbour64 n64;
+    KdrayNeighbour n32;
+    CHECK(kdray_nearest_f64(&tree, q64, 3, &n64) == KDRAY_STATUS_WRONG_SHAPE, "f64 query on a float tree");
+    CHECK(kdray_nearest_f32(&tree, q32, 4, &n32) == KDRAY_STATUS_WRONG_SHAPE, "4-D query on a 3-D tree");
+  }
   /* Queries on the grid's points (ties at equal distance) and between them. */
   for (int i = 0; i < QUERIES; i++) {
     for (int a = 0; a < 3; a++)
@@ -219,6 +231,10 @@ static void check_points(const uint8_t *blob, size_t len, const float *pts, size
     KdrayNeighbour nearest;
     CHECK(kdray_nearest(&tree, q, &nearest) == KDRAY_STATUS_OK, "nearest %d", i);
     CHECK(memcmp(&nearest, &knn[i][0], sizeof nearest) == 0, "nearest is the first of k, query %d", i);
+    KdrayNeighbour knn_d[K];
+    CHECK(kdray_knn_f32(&tree, q, 3, K, knn_d, &found) == KDRAY_STATUS_OK && found == K &&
+              memcmp(knn_d, knn[i], sizeof knn_d) == 0,
+          "knn_f32 with dim 3 is knn, query %d", i);
 
     /* Radius: exactly the points brute force finds, nearest first. */
     KdrayNeighbour within[128];

@@ -108,7 +108,7 @@ pub use geometry::{ray_is_valid, Axis, Bounds, Hit, Ray, MISS, OCCLUDED};
 pub use glam;
 pub use points::{
     distance2, knn_brute, nearest_brute, within_brute, BufferTooSmall, Neighbour, PointNode,
-    PointNodeKind, PointTree, PointTreeN, Scalar, MAX_POINT_FIELD,
+    PointNodeKind, PointShape, PointTree, PointTreeN, Scalar, MAX_POINT_FIELD,
 };
 pub use triangle::{any_hit_brute, closest_hit_brute, SurfacePoint, Triangle, MAX_COORD};
 pub use triangle_tree::packet::{Packet, Packet16, Packet4, Packet8, PacketWidth};

@@ -17,6 +17,7 @@ pub mod builders;
 pub mod camera;
 pub mod io;
 pub mod mesh;
+pub mod morton;
 pub mod points;
 pub mod render;
 pub mod rng;

@@ -678,6 +678,31 @@ fn rays_makes_files_the_other_commands_read() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stdout(&o).contains("on 1 thread,"), "{}", stdout(&o));
+
+    // sort-rays: the same records in another order, in place too.
+    let random = file("random");
+    let sorted = tmp("rays-sorted.rays");
+    let o = kdray(&[
+        "sort-rays",
+        &random.display().to_string(),
+        "-o",
+        &sorted.display().to_string(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (mut a, mut b) = (records(&random), records(&sorted));
+    assert_ne!(a, b, "77 random rays come out reordered");
+    a.sort();
+    b.sort();
+    assert_eq!(a, b, "the same rays in another order");
+    let s = sorted.display().to_string();
+    let again = kdray(&["sort-rays", &s, "-o", &s]);
+    assert!(again.status.success(), "{}", stderr(&again));
+    assert_eq!(records(&sorted).len(), 77);
+    let junk = write(&tmp("rays-junk.rays"), &[0u8; 33]);
+    let o = kdray(&["sort-rays", &junk, "-o", &s]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("not a multiple"), "{}", stderr(&o));
+    assert_eq!(records(&sorted).len(), 77, "a failed sort keeps the output");
 }
 
 /// `info --json` says `"valid": true` as a boolean, and on failure prints

@@ -43,6 +43,33 @@ fn shown(n: usize) -> u32 {
     u32::try_from(n).unwrap_or(u32::MAX)
 }
 
+/// What a point blob holds, read from its shape record: for a caller that
+/// learns D and the scalar type at run time (a C program, a tool), to pick
+/// the [`PointTreeN`] to load it with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PointShape {
+    /// Coordinates per point (D).
+    pub dim: u32,
+    /// Bytes per coordinate: 4 for `f32`, 8 for `f64`.
+    pub scalar_bytes: u32,
+}
+
+impl PointShape {
+    /// The shape recorded in a point blob, checking only its header
+    /// (alignment, magic, endianness, version, kind) and that the shape
+    /// record is there: O(1). Loading with [`PointTreeN::from_bytes`] then
+    /// validates the rest.
+    ///
+    /// # Errors
+    /// A [`BlobError`] for a bad header or a missing shape record.
+    pub fn of_blob(bytes: &[u8]) -> Result<PointShape, BlobError> {
+        let (_, mut s) = Sections::open(bytes, KIND_POINTS)?;
+        let shape = s.take::<[u32; 2]>(SECTIONS[0], 1)?;
+        let [dim, scalar_bytes] = shape.first().copied().unwrap_or([0, 0]);
+        Ok(PointShape { dim, scalar_bytes })
+    }
+}
+
 impl<'a, const D: usize, S: Scalar> PointTreeN<'a, D, S> {
     /// Loads and validates a point blob written by [`PointTreeN::write_to`]
     /// (`kdray_tools::blob::write_point_tree`, `kdray build-points`).

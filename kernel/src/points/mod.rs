@@ -36,6 +36,7 @@ mod scalar;
 mod search;
 mod within;
 
+pub use blob::PointShape;
 pub use knn::knn_brute;
 pub use nearest::nearest_brute;
 pub use node::{PointNode, PointNodeKind, MAX_POINT_FIELD};

@@ -23,6 +23,7 @@ mod report;
 #[cfg(unix)]
 #[allow(unsafe_code)] // three C library calls, each with its SAFETY argument
 mod signals;
+mod sort_rays;
 mod trace;
 
 use clap::{Parser, Subcommand};
@@ -51,6 +52,9 @@ enum Command {
     /// Make a ray file: camera rays (row order or packet tiles), random
     /// rays or shadow rays.
     Rays(rays::Args),
+    /// Reorder a ray file by the Morton code of the origins, as an
+    /// engine's pixel order gives its shadow and bounce rays.
+    SortRays(sort_rays::Args),
     /// Render a mesh or tree to PNG: shaded, or a traversal-cost heatmap.
     Render(render::Args),
     /// Build and trace the built-in teapot-in-a-stadium scene (the default).
@@ -74,6 +78,7 @@ pub(crate) fn main() -> ExitCode {
         Some(Command::BuildPoints(a)) => build_points::run(&a),
         Some(Command::Knn(a)) => knn::run(&a),
         Some(Command::Rays(a)) => rays::run(&a),
+        Some(Command::SortRays(a)) => sort_rays::run(&a),
         Some(Command::Render(a)) => render::run(&a),
         Some(Command::Demo(a)) => demo::run(&a),
         Some(Command::Bench(a)) => bench::run(&a),

@@ -204,10 +204,15 @@ fn bounds_of<const D: usize, S: Scalar>(items: &[Item<D, S>]) -> [[S; D]; 2] {
         return [[S::ZERO; D]; 2];
     };
     let [mut min, mut max] = [first.p; 2];
+    // Compares, not `f32::min`: the points are finite (checked), and a
+    // plain compare-and-select is one vector min per lane group where the
+    // NaN-aware `min` is three instructions per coordinate (a fifth of a
+    // 16-D build's instructions, callgrind).
     for it in items {
         for a in 0..D {
-            min[a] = min[a].min(it.p[a]);
-            max[a] = max[a].max(it.p[a]);
+            let x = it.p[a];
+            min[a] = if x < min[a] { x } else { min[a] };
+            max[a] = if x > max[a] { x } else { max[a] };
         }
     }
     [min, max]
@@ -246,7 +251,16 @@ fn split_axis<const D: usize, S: Scalar>(
 /// 0.8-0.9M -> 1.3-2.0M queries/s; no change on uniform points.
 fn partition<const D: usize, S: Scalar>(items: &mut [Item<D, S>], a: usize) -> (usize, S) {
     let mid = items.len() / 2;
-    items.select_nth_unstable_by(mid, |x, y| x.p[a].total_cmp(&y.p[a]));
+    // The points are finite, so `<` orders them (-0 and +0 as equals,
+    // which the tie rule below puts on one side): a third fewer
+    // instructions per comparison than `total_cmp`'s bit twiddling.
+    // Tried selecting (coordinate, position) pairs and moving each point
+    // once: 12% more instructions at D = 16.
+    items.select_nth_unstable_by(mid, |x, y| {
+        x.p[a]
+            .partial_cmp(&y.p[a])
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
     let split = items[mid].p[a];
     // Move the ties after the median to the front of the above part.
     let above = &mut items[mid + 1..];
@@ -410,6 +424,24 @@ mod tests {
         // Every point is where its index says, after the leaf-major transpose.
         for (at, &i) in tree.indices().iter().enumerate() {
             assert_eq!(tree.point(at), Some(pts[i as usize]));
+        }
+    }
+
+    #[test]
+    fn signed_zeros_split_as_equals_and_every_point_is_found() {
+        // -0 and +0 compare equal in the median selection: the tree must
+        // still validate (every point on its side of each split plane).
+        let pts: Vec<[f32; 3]> = (0..500)
+            .map(|i| {
+                let z = if i % 3 == 0 { -0.0 } else { 0.0 };
+                [z, (i % 7) as f32, if i % 2 == 0 { -0.0 } else { 0.0 }]
+            })
+            .collect();
+        let built = build_points(&pts, &PointParams::default()).unwrap();
+        let tree = built.view().unwrap();
+        for p in &pts {
+            let n = tree.nearest(*p).unwrap();
+            assert_eq!(n.d2, 0.0);
         }
     }
 

@@ -91,11 +91,12 @@
 
 // The layers, each importing only from those above it in this list
 // (docs/architecture.md): geometry -> lanes -> triangle -> blob ->
-// triangle_tree, points.
+// triangle_tree, points -> scene.
 mod blob;
 mod geometry;
 mod lanes;
 mod points;
+mod scene;
 #[cfg(test)]
 mod test_rng;
 mod triangle;
@@ -109,6 +110,10 @@ pub use glam;
 pub use points::{
     distance2, knn_brute, nearest_brute, within_brute, BufferTooSmall, Neighbour, PointNode,
     PointNodeKind, PointTree, PointTreeN, Scalar, MAX_POINT_FIELD,
+};
+pub use scene::{
+    inverse_affine, Instance, MeshEntry, Scene, SceneError, SceneHit, IDENTITY, KIND_SCENE,
+    MESH_ALIGN,
 };
 pub use triangle::{any_hit_brute, closest_hit_brute, SurfacePoint, Triangle, MAX_COORD};
 pub use triangle_tree::packet::{Packet, Packet16, Packet4, Packet8, PacketWidth};

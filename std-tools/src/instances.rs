@@ -1,0 +1,433 @@
+//! Scenes on the host: the top-level tree over instance world boxes (SAH
+//! with binning), the scene blob writer, the flattened scene (every
+//! instance's triangles in world space, in instance order) and a
+//! generated level.
+//!
+//! An engine updates a scene per frame without touching static meshes:
+//! moved instances get new transforms ([`Instance::new`]), the world boxes
+//! are recomputed from each mesh's bounds ([`world_boxes`]), and only the
+//! top level is rebuilt ([`build_top_level`]); mesh trees are shared and
+//! kept. A deforming mesh rebuilds its own tree.
+
+use crate::blob::{write_triangle_tree, Blob};
+use crate::builders::{
+    self, flatten, BuildError, BuildNode, BuildParams, BuilderKind, BuiltTree, CostModel,
+};
+use crate::rng::Rng;
+use kdray_kernel::wire::{
+    blob_checksum, Header, CHECKSUM_OFFSET, ENDIAN_CHECK, HEADER_LEN, MAGIC, VERSION,
+};
+use kdray_kernel::{
+    Axis, Bounds, Instance, Triangle, TriangleTree, WriteError, KIND_SCENE, MAX_DEPTH, MESH_ALIGN,
+};
+
+/// Equal-width bins per axis the top-level builder evaluates the SAH at.
+const BINS: usize = 16;
+
+/// The top level's cost model: a traversal step against tracing one
+/// instance (a mesh walk of some tens of steps), so leaves stay small.
+pub const TOP_COST: CostModel = CostModel {
+    traversal: 1.0,
+    intersection: 8.0,
+    empty_factor: 0.8,
+};
+
+/// The world box of each instance, from its mesh's bounds.
+#[must_use]
+pub fn world_boxes(mesh_bounds: &[Bounds], instances: &[Instance]) -> Vec<Bounds> {
+    instances
+        .iter()
+        .map(|i| {
+            mesh_bounds
+                .get(i.mesh() as usize)
+                .map_or(Bounds::EMPTY, |b| i.world_bounds(b))
+        })
+        .collect()
+}
+
+/// The top-level tree over instance world boxes: SAH at [`BINS`] bin
+/// boundaries per axis with [`TOP_COST`], each box clipped to its cell and
+/// listed in every leaf whose cell it overlaps; depth at most
+/// `8 + 1.3 log2(n)`. Boxes that are empty (an instance of a missing mesh)
+/// are left out. One thread: a level of 10,000 instances builds in well
+/// under a millisecond (docs/results.md, `## Scenes`).
+#[must_use]
+pub fn build_top_level(boxes: &[Bounds]) -> BuiltTree {
+    let bounds = boxes
+        .iter()
+        .filter(|b| b.min[0] <= b.max[0])
+        .fold(Bounds::EMPTY, |a, b| a.union(b));
+    let bounds = if bounds.min[0] <= bounds.max[0] {
+        bounds
+    } else {
+        Bounds::ZERO
+    };
+    let items: Vec<(u32, Bounds)> = boxes
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| b.min[0] <= b.max[0])
+        .map(|(i, b)| (i as u32, *b))
+        .collect();
+    let limit = BuildParams::default()
+        .depth_limit(items.len())
+        .min(MAX_DEPTH);
+    let root = split_cell(items, bounds, 0, limit);
+    flatten(root, bounds)
+}
+
+/// One cell of the top-level build: a leaf, or the best binned plane.
+fn split_cell(mut items: Vec<(u32, Bounds)>, cell: Bounds, depth: u32, limit: u32) -> BuildNode {
+    let n = items.len();
+    if n <= 1 || depth >= limit {
+        return leaf(items);
+    }
+    let Some((axis, plane, cost)) = best_plane(&items, &cell) else {
+        return leaf(items);
+    };
+    if cost >= TOP_COST.leaf(n) {
+        return leaf(items);
+    }
+    let (cb, ca) = cell.split(axis, plane);
+    let mut above = Vec::with_capacity(n / 2 + 1);
+    let mut below = Vec::with_capacity(n / 2 + 1);
+    for (i, b) in items.drain(..) {
+        // Below when the box starts before the plane, above when it ends
+        // after it or starts on it: every point of the box in a cell that
+        // holds it (cells are closed).
+        if b.min[axis] < plane {
+            below.push((i, b.intersect(&cb)));
+        }
+        if b.max[axis] > plane || b.min[axis] >= plane {
+            above.push((i, b.intersect(&ca)));
+        }
+    }
+    if below.len() == n && above.len() == n {
+        // Every box straddles the plane: splitting gains nothing.
+        return leaf(below);
+    }
+    let axis_name = [Axis::X, Axis::Y, Axis::Z][axis];
+    BuildNode::interior(
+        axis_name,
+        plane,
+        split_cell(below, cb, depth + 1, limit),
+        split_cell(above, ca, depth + 1, limit),
+    )
+}
+
+fn leaf(items: Vec<(u32, Bounds)>) -> BuildNode {
+    let mut ids: Vec<u32> = items.into_iter().map(|(i, _)| i).collect();
+    ids.sort_unstable();
+    ids.dedup();
+    BuildNode::Leaf(ids)
+}
+
+/// The cheapest of the bin boundaries on every axis: (axis, plane, cost).
+fn best_plane(items: &[(u32, Bounds)], cell: &Bounds) -> Option<(usize, f32, f64)> {
+    let area = cell.area();
+    let n = items.len();
+    let mut best: Option<(usize, f32, f64)> = None;
+    for axis in 0..3 {
+        let (lo, hi) = (cell.min[axis], cell.max[axis]);
+        let extent = hi - lo;
+        if extent.is_nan() || extent <= 0.0 {
+            continue;
+        }
+        let scale = BINS as f32 / extent;
+        let bin = |x: f32| (((x - lo) * scale) as usize).min(BINS - 1);
+        let (mut starts, mut ends) = ([0usize; BINS], [0usize; BINS]);
+        for (_, b) in items {
+            starts[bin(b.min[axis])] += 1;
+            ends[bin(b.max[axis])] += 1;
+        }
+        let (mut n_below, mut n_ended) = (0, 0);
+        for k in 1..BINS {
+            n_below += starts[k - 1];
+            n_ended += ends[k - 1];
+            let plane = lo + extent * k as f32 / BINS as f32;
+            if plane <= lo || plane >= hi {
+                continue;
+            }
+            let (cb, ca) = cell.split(axis, plane);
+            let (pb, pa) = if area > 0.0 {
+                (cb.area() / area, ca.area() / area)
+            } else {
+                (1.0, 1.0)
+            };
+            let cost = TOP_COST.split(pb, n_below, pa, n - n_ended);
+            if best.is_none_or(|(_, _, c)| cost < c) {
+                best = Some((axis, plane, cost));
+            }
+        }
+    }
+    best
+}
+
+/// A scene built on the host: the mesh tree blobs, the instances, the top level.
+#[derive(Clone, Debug)]
+pub struct SceneParts {
+    /// Each mesh's triangle-tree blob.
+    pub meshes: Vec<Blob>,
+    /// The instances.
+    pub instances: Vec<Instance>,
+    /// The top level over the instances' world boxes.
+    pub top: BuiltTree,
+}
+
+/// Why a scene could not be built.
+#[derive(Debug)]
+pub enum SceneBuildError {
+    /// A mesh's tree could not be built.
+    Build {
+        /// The mesh.
+        mesh: usize,
+        /// Why.
+        error: BuildError,
+    },
+    /// A blob could not be written.
+    Write(WriteError),
+}
+
+impl std::fmt::Display for SceneBuildError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SceneBuildError::Build { mesh, error } => write!(f, "mesh {mesh}: {error}"),
+            SceneBuildError::Write(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for SceneBuildError {}
+
+/// Builds a tree per mesh (with `kind` and `params`) and the top level
+/// over `instances`.
+///
+/// # Errors
+/// [`SceneBuildError`] naming the mesh whose build failed.
+pub fn build_scene(
+    meshes: &[Vec<Triangle>],
+    instances: Vec<Instance>,
+    kind: BuilderKind,
+    params: &BuildParams,
+) -> Result<SceneParts, SceneBuildError> {
+    let mut blobs = Vec::with_capacity(meshes.len());
+    let mut bounds = Vec::with_capacity(meshes.len());
+    for (mesh, tris) in meshes.iter().enumerate() {
+        let tree = builders::build(tris, kind, params)
+            .map_err(|error| SceneBuildError::Build { mesh, error })?;
+        bounds.push(tree.bounds);
+        blobs.push(write_triangle_tree(&tree, tris).map_err(SceneBuildError::Write)?);
+    }
+    let top = build_top_level(&world_boxes(&bounds, &instances));
+    Ok(SceneParts {
+        meshes: blobs,
+        instances,
+        top,
+    })
+}
+
+impl SceneParts {
+    /// The validated mesh trees, for [`kdray_kernel::Scene::from_parts`].
+    ///
+    /// # Errors
+    /// The kernel's error for a mesh blob (never for one this module wrote).
+    pub fn trees(&self) -> Result<Vec<TriangleTree<'_>>, kdray_kernel::BlobError> {
+        self.meshes.iter().map(Blob::tree).collect()
+    }
+
+    /// The scene blob.
+    ///
+    /// # Errors
+    /// [`WriteError`] when a count or offset does not fit 32 bits.
+    pub fn write(&self) -> Result<Blob, WriteError> {
+        let meshes: Vec<&[u8]> = self.meshes.iter().map(Blob::as_bytes).collect();
+        write_scene(&meshes, &self.instances, &self.top)
+    }
+}
+
+/// Writes a scene blob (layout: the kernel's `scene` module docs): the
+/// header, the top level, the instances, the mesh table, then each mesh
+/// blob at the next multiple of [`MESH_ALIGN`]. The same input gives the
+/// same bytes.
+///
+/// # Errors
+/// [`WriteError::TooMany`] for a count or offset beyond 32 bits.
+pub fn write_scene(
+    meshes: &[&[u8]],
+    instances: &[Instance],
+    top: &BuiltTree,
+) -> Result<Blob, WriteError> {
+    let count = |what: &'static str, count: usize| {
+        u32::try_from(count).map_err(|_| WriteError::TooMany { what, count })
+    };
+    let header = Header {
+        magic: MAGIC,
+        endian: ENDIAN_CHECK,
+        version: VERSION,
+        kind: KIND_SCENE,
+        max_depth: top.max_depth,
+        node_count: count("top-level nodes", top.nodes.len())?,
+        index_count: count("instance indices", top.prims.len())?,
+        item_count: count("instances", instances.len())?,
+        checksum: 0,
+        bounds_min: top.bounds.min,
+        bounds_max: top.bounds.max,
+    };
+    let mut out =
+        Vec::with_capacity(HEADER_LEN + meshes.iter().map(|m| m.len() + MESH_ALIGN).sum::<usize>());
+    out.extend_from_slice(bytemuck::bytes_of(&header));
+    out.extend_from_slice(bytemuck::cast_slice(&top.nodes));
+    out.extend_from_slice(bytemuck::cast_slice(&top.prims));
+    out.extend_from_slice(bytemuck::cast_slice(instances));
+    out.extend_from_slice(&count("meshes", meshes.len())?.to_le_bytes());
+    let table_at = out.len();
+    out.resize(table_at + 8 * meshes.len(), 0);
+    for (i, m) in meshes.iter().enumerate() {
+        out.resize(out.len().next_multiple_of(MESH_ALIGN), 0);
+        let entry = [
+            count("mesh offset", out.len())?,
+            count("mesh length", m.len())?,
+        ];
+        out[table_at + 8 * i..table_at + 8 * i + 8].copy_from_slice(bytemuck::cast_slice(&entry));
+        out.extend_from_slice(m);
+    }
+    let sum = blob_checksum(&out);
+    out[CHECKSUM_OFFSET..CHECKSUM_OFFSET + 4].copy_from_slice(&sum.to_le_bytes());
+    Ok(Blob::from_bytes(&out))
+}
+
+/// `p` through a 3×4 row-major transform, in `f32`, rows summed left to
+/// right (the kernel's [`Instance::local_ray`] arithmetic).
+#[must_use]
+pub fn transform_point(m: &[f32; 12], p: [f32; 3]) -> [f32; 3] {
+    core::array::from_fn(|r| {
+        ((m[r * 4] * p[0] + m[r * 4 + 1] * p[1]) + m[r * 4 + 2] * p[2]) + m[r * 4 + 3]
+    })
+}
+
+/// The flattened scene: every instance's triangles through its transform,
+/// in instance order, each mesh's triangles in mesh order. Triangle `p` of
+/// instance `i` has index `flattened_offsets(..)[i] + p`.
+#[must_use]
+pub fn flatten_scene(meshes: &[Vec<Triangle>], instances: &[Instance]) -> Vec<Triangle> {
+    let mut out = Vec::new();
+    for inst in instances {
+        let m = inst.to_world();
+        if let Some(tris) = meshes.get(inst.mesh() as usize) {
+            out.extend(tris.iter().map(|t| Triangle {
+                v: t.v.map(|p| transform_point(&m, p)),
+            }));
+        }
+    }
+    out
+}
+
+/// Where each instance's triangles start in the flattened order (the
+/// prefix sums of their meshes' triangle counts).
+#[must_use]
+pub fn flattened_offsets(mesh_sizes: &[usize], instances: &[Instance]) -> Vec<u64> {
+    let mut at = 0u64;
+    instances
+        .iter()
+        .map(|i| {
+            let start = at;
+            at += mesh_sizes.get(i.mesh() as usize).copied().unwrap_or(0) as u64;
+            start
+        })
+        .collect()
+}
+
+/// A rotation by `angle` about unit `axis`, scaled by `scale` per local
+/// axis, then moved by `shift`: a 3×4 row-major transform.
+#[must_use]
+pub fn placement(axis: [f32; 3], angle: f32, scale: [f32; 3], shift: [f32; 3]) -> [f32; 12] {
+    let r = glam::Mat3::from_axis_angle(glam::Vec3::from(axis).normalize_or(glam::Vec3::Y), angle)
+        * glam::Mat3::from_diagonal(glam::Vec3::from(scale));
+    let c = r.to_cols_array_2d();
+    [
+        c[0][0], c[1][0], c[2][0], shift[0], //
+        c[0][1], c[1][1], c[2][1], shift[1], //
+        c[0][2], c[1][2], c[2][2], shift[2],
+    ]
+}
+
+/// A UV sphere of radius 1 about the origin: `rings` × `segments` quads.
+#[must_use]
+pub fn sphere(rings: usize, segments: usize) -> Vec<Triangle> {
+    let p = |i: usize, j: usize| {
+        let th = std::f32::consts::PI * i as f32 / rings as f32;
+        let ph = std::f32::consts::TAU * j as f32 / segments as f32;
+        [th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()]
+    };
+    grid(rings, segments, p)
+}
+
+/// A torus of radii 1 and 0.3 about the y axis.
+#[must_use]
+pub fn torus(rings: usize, segments: usize) -> Vec<Triangle> {
+    let p = |i: usize, j: usize| {
+        let a = std::f32::consts::TAU * i as f32 / rings as f32;
+        let b = std::f32::consts::TAU * j as f32 / segments as f32;
+        let r = 1.0 + 0.3 * b.cos();
+        [r * a.cos(), 0.3 * b.sin(), r * a.sin()]
+    };
+    grid(rings, segments, p)
+}
+
+fn grid(n: usize, m: usize, p: impl Fn(usize, usize) -> [f32; 3]) -> Vec<Triangle> {
+    let mut out = Vec::with_capacity(2 * n * m);
+    for i in 0..n {
+        for j in 0..m {
+            let (a, b, c, d) = (p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1));
+            out.push(Triangle { v: [a, b, c] });
+            out.push(Triangle { v: [a, c, d] });
+        }
+    }
+    out
+}
+
+/// A generated level: `copies` transformed copies of a sphere and of a
+/// torus (random rotations, scales from 0.3 to 2 per axis, every fifth
+/// mirrored) over a `size` × `size` square, plus a floor (mesh 2, one
+/// instance). Returns the meshes and the instances.
+#[must_use]
+pub fn generated_level(copies: usize, size: f32, seed: u64) -> (Vec<Vec<Triangle>>, Vec<Instance>) {
+    let floor = vec![
+        Triangle {
+            v: [[-1.0, 0.0, -1.0], [1.0, 0.0, -1.0], [1.0, 0.0, 1.0]],
+        },
+        Triangle {
+            v: [[-1.0, 0.0, -1.0], [1.0, 0.0, 1.0], [-1.0, 0.0, 1.0]],
+        },
+    ];
+    let meshes = vec![sphere(24, 48), torus(48, 24), floor];
+    let mut rng = Rng::new(seed);
+    let mut instances = Vec::with_capacity(2 * copies + 1);
+    for k in 0..2 * copies {
+        let mut scale = [
+            rng.range(0.3, 2.0),
+            rng.range(0.3, 2.0),
+            rng.range(0.3, 2.0),
+        ];
+        if k % 5 == 4 {
+            scale[0] = -scale[0];
+        }
+        let shift = [
+            rng.range(-size, size) * 0.5,
+            rng.range(0.0, 2.0),
+            rng.range(-size, size) * 0.5,
+        ];
+        let m = placement(
+            rng.unit_vector(),
+            rng.range(0.0, std::f32::consts::TAU),
+            scale,
+            shift,
+        );
+        if let Some(inst) = Instance::new((k % 2) as u32, m, k as u32, 1 << (k % 4)) {
+            instances.push(inst);
+        }
+    }
+    let half = size * 0.5 + 2.0;
+    let floor_m = placement([0.0, 1.0, 0.0], 0.0, [half, 1.0, half], [0.0, 0.0, 0.0]);
+    instances.extend(Instance::new(2, floor_m, u32::MAX, u32::MAX));
+    (meshes, instances)
+}

@@ -18,7 +18,8 @@ use kdray_kernel::wire::{
     blob_checksum, Header, CHECKSUM_OFFSET, ENDIAN_CHECK, HEADER_LEN, MAGIC, VERSION,
 };
 use kdray_kernel::{
-    Axis, Bounds, Instance, Triangle, TriangleTree, WriteError, KIND_SCENE, MAX_DEPTH, MESH_ALIGN,
+    Axis, Bounds, Hit, Instance, Ray, Scene, Triangle, TriangleTree, WriteError, KIND_SCENE,
+    MAX_DEPTH, MESH_ALIGN,
 };
 
 /// Equal-width bins per axis the top-level builder evaluates the SAH at.
@@ -430,4 +431,47 @@ pub fn generated_level(copies: usize, size: f32, seed: u64) -> (Vec<Vec<Triangle
     let floor_m = placement([0.0, 1.0, 0.0], 0.0, [half, 1.0, half], [0.0, 0.0, 0.0]);
     instances.extend(Instance::new(2, floor_m, u32::MAX, u32::MAX));
     (meshes, instances)
+}
+
+/// Is `bytes` a scene blob (by its header's kind; nothing else checked)?
+#[must_use]
+pub fn is_scene_blob(bytes: &[u8]) -> bool {
+    bytes.get(16..20) == Some(&KIND_SCENE.to_le_bytes()[..])
+}
+
+/// Where each instance's triangles start in the flattened order of `scene`.
+#[must_use]
+pub fn scene_offsets(scene: &Scene<'_>) -> Vec<u64> {
+    let sizes: Vec<usize> = (0..scene.mesh_count())
+        .map(|m| scene.mesh(m).map_or(0, |t| t.triangles().len()))
+        .collect();
+    flattened_offsets(&sizes, scene.instances())
+}
+
+/// Traces `rays` through `scene` (every instance: mask all ones) on the
+/// current rayon pool into `hits`, as hit-file records: `prim` is the
+/// triangle's index in the flattened order ([`flatten_scene`]; for a glTF
+/// scene, the order `kdray build` without `--instances` uses); `any`
+/// writes occlusion records.
+pub fn trace_scene(scene: &Scene<'_>, offsets: &[u64], rays: &[Ray], hits: &mut [Hit], any: bool) {
+    use rayon::prelude::*;
+    hits.par_chunks_mut(1024)
+        .zip(rays.par_chunks(1024))
+        .for_each(|(hs, rs)| {
+            for (h, r) in hs.iter_mut().zip(rs) {
+                *h = if any {
+                    Hit::occlusion(scene.any_hit(r, u32::MAX))
+                } else {
+                    let s = scene.closest_hit(r, u32::MAX);
+                    match offsets.get(s.instance as usize) {
+                        Some(&at) if s.is_hit() => Hit {
+                            prim: u32::try_from(at + u64::from(s.prim))
+                                .unwrap_or(kdray_kernel::MISS),
+                            ..s.hit()
+                        },
+                        _ => Hit::MISS,
+                    }
+                };
+            }
+        });
 }

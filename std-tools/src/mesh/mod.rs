@@ -11,7 +11,7 @@ use kdray_kernel::Triangle;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-pub use gltf::load_gltf;
+pub use gltf::{load_gltf, load_gltf_instanced, InstancedGltf};
 pub use obj::load_obj;
 pub use ply::load_ply;
 

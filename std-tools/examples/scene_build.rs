@@ -1,15 +1,25 @@
 //! Times the top-level rebuild of a generated level, one thread:
-//! `taskset -c 0 cargo run --release -p kdray-tools --example scene_build -- 10000`.
+//! `taskset -c 0 cargo run --release -p kdray-tools --example scene_build -- 10000`
+//! (then, to try other parameters: intersection cost, bins, leaf size,
+//! extra depth).
 
-use kdray_tools::builders::{build, BuildParams, BuilderKind};
-use kdray_tools::instances::{build_top_level, generated_level, world_boxes};
+use kdray_tools::builders::{build, BuildParams, BuilderKind, CostModel};
+use kdray_tools::instances::{build_top_level_with, generated_level, world_boxes, TopParams};
 use std::time::Instant;
 
 fn main() {
-    let n: usize = std::env::args()
-        .nth(1)
-        .and_then(|a| a.parse().ok())
-        .unwrap_or(10_000);
+    let arg = |i: usize| std::env::args().nth(i).and_then(|a| a.parse::<f64>().ok());
+    let n = arg(1).map_or(10_000, |x| x as usize);
+    let d = TopParams::DEFAULT;
+    let p = TopParams {
+        cost: CostModel {
+            intersection: arg(2).unwrap_or(d.cost.intersection),
+            ..d.cost
+        },
+        bins: arg(3).map_or(d.bins, |x| x as usize),
+        leaf_size: arg(4).map_or(d.leaf_size, |x| x as usize),
+        extra_depth: arg(5).map_or(d.extra_depth, |x| x as u32),
+    };
     let (meshes, instances) = generated_level(n / 2, (n as f32).sqrt() * 2.0, 1);
     let bounds: Vec<_> = meshes
         .iter()
@@ -19,21 +29,21 @@ fn main() {
                 .bounds
         })
         .collect();
-    let mut best_boxes = f64::INFINITY;
-    let mut best_top = f64::INFINITY;
-    let mut nodes = 0;
+    let (mut best_boxes, mut best_top) = (f64::INFINITY, f64::INFINITY);
+    let (mut nodes, mut refs) = (0, 0);
     for _ in 0..50 {
         let t = Instant::now();
         let boxes = world_boxes(&bounds, &instances);
         let t_boxes = t.elapsed().as_secs_f64();
-        let top = build_top_level(&boxes);
+        let top = build_top_level_with(&boxes, &p);
         let t_all = t.elapsed().as_secs_f64();
         best_boxes = best_boxes.min(t_boxes);
         best_top = best_top.min(t_all - t_boxes);
         nodes = top.nodes.len();
+        refs = top.prims.len();
     }
     println!(
-        "{} instances: world boxes {:.3} ms, top level {:.3} ms ({nodes} nodes), best of 50",
+        "{} instances: world boxes {:.3} ms, top level {:.3} ms ({nodes} nodes, {refs} listed), best of 50, {p:?}",
         instances.len(),
         best_boxes * 1e3,
         best_top * 1e3

@@ -22,16 +22,33 @@ use kdray_kernel::{
     MAX_DEPTH, MESH_ALIGN,
 };
 
-/// Equal-width bins per axis the top-level builder evaluates the SAH at.
-const BINS: usize = 16;
+/// The top-level builder's parameters ([`TopParams::DEFAULT`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TopParams {
+    /// The SAH's constants: a traversal step against tracing one instance.
+    pub cost: CostModel,
+    /// Equal-width bins per axis the SAH is evaluated at (at most 64).
+    pub bins: usize,
+    /// Cells of at most this many instances become leaves.
+    pub leaf_size: usize,
+    /// Depth limit: `extra_depth + log2(n)`, at most `MAX_DEPTH`.
+    pub extra_depth: u32,
+}
 
-/// The top level's cost model: a traversal step against tracing one
-/// instance (a mesh walk of some tens of steps), so leaves stay small.
-pub const TOP_COST: CostModel = CostModel {
-    traversal: 1.0,
-    intersection: 8.0,
-    empty_factor: 0.8,
-};
+impl TopParams {
+    /// Tracing an instance (a mesh walk of some tens of steps) costs a few
+    /// traversal steps; 16 bins; leaves of up to 2 instances.
+    pub const DEFAULT: TopParams = TopParams {
+        cost: CostModel {
+            traversal: 1.0,
+            intersection: 4.0,
+            empty_factor: 0.8,
+        },
+        bins: 16,
+        leaf_size: 2,
+        extra_depth: 6,
+    };
+}
 
 /// The world box of each instance, from its mesh's bounds.
 #[must_use]
@@ -46,14 +63,20 @@ pub fn world_boxes(mesh_bounds: &[Bounds], instances: &[Instance]) -> Vec<Bounds
         .collect()
 }
 
-/// The top-level tree over instance world boxes: SAH at [`BINS`] bin
-/// boundaries per axis with [`TOP_COST`], each box clipped to its cell and
-/// listed in every leaf whose cell it overlaps; depth at most
-/// `8 + 1.3 log2(n)`. Boxes that are empty (an instance of a missing mesh)
-/// are left out. One thread: a level of 10,000 instances builds in well
-/// under a millisecond (docs/results.md, `## Scenes`).
+/// The top-level tree over instance world boxes with [`TopParams::DEFAULT`]
+/// ([`build_top_level_with`]).
 #[must_use]
 pub fn build_top_level(boxes: &[Bounds]) -> BuiltTree {
+    build_top_level_with(boxes, &TopParams::DEFAULT)
+}
+
+/// The top-level tree over instance world boxes: SAH at `p.bins` bin
+/// boundaries per axis, each box clipped to its cell and listed in every
+/// leaf whose cell it overlaps. Boxes that are empty (an instance of a
+/// missing mesh) are left out. One thread (docs/results.md, `## Scenes`,
+/// has its time for 10,000 instances).
+#[must_use]
+pub fn build_top_level_with(boxes: &[Bounds], p: &TopParams) -> BuiltTree {
     let bounds = boxes
         .iter()
         .filter(|b| b.min[0] <= b.max[0])
@@ -69,23 +92,32 @@ pub fn build_top_level(boxes: &[Bounds]) -> BuiltTree {
         .filter(|(_, b)| b.min[0] <= b.max[0])
         .map(|(i, b)| (i as u32, *b))
         .collect();
-    let limit = BuildParams::default()
-        .depth_limit(items.len())
-        .min(MAX_DEPTH);
-    let root = split_cell(items, bounds, 0, limit);
+    let log2 = usize::BITS - items.len().leading_zeros();
+    let limit = (p.extra_depth + log2).min(MAX_DEPTH);
+    let p = TopParams {
+        bins: p.bins.clamp(2, MAX_BINS),
+        ..*p
+    };
+    let root = split_cell(items, bounds, 0, limit, &p);
     flatten(root, bounds)
 }
 
 /// One cell of the top-level build: a leaf, or the best binned plane.
-fn split_cell(mut items: Vec<(u32, Bounds)>, cell: Bounds, depth: u32, limit: u32) -> BuildNode {
+fn split_cell(
+    mut items: Vec<(u32, Bounds)>,
+    cell: Bounds,
+    depth: u32,
+    limit: u32,
+    p: &TopParams,
+) -> BuildNode {
     let n = items.len();
-    if n <= 1 || depth >= limit {
+    if n <= p.leaf_size.max(1) || depth >= limit {
         return leaf(items);
     }
-    let Some((axis, plane, cost)) = best_plane(&items, &cell) else {
+    let Some((axis, plane, cost)) = best_plane(&items, &cell, p) else {
         return leaf(items);
     };
-    if cost >= TOP_COST.leaf(n) {
+    if cost >= p.cost.leaf(n) {
         return leaf(items);
     }
     let (cb, ca) = cell.split(axis, plane);
@@ -110,8 +142,8 @@ fn split_cell(mut items: Vec<(u32, Bounds)>, cell: Bounds, depth: u32, limit: u3
     BuildNode::interior(
         axis_name,
         plane,
-        split_cell(below, cb, depth + 1, limit),
-        split_cell(above, ca, depth + 1, limit),
+        split_cell(below, cb, depth + 1, limit, p),
+        split_cell(above, ca, depth + 1, limit, p),
     )
 }
 
@@ -122,39 +154,55 @@ fn leaf(items: Vec<(u32, Bounds)>) -> BuildNode {
     BuildNode::Leaf(ids)
 }
 
-/// The cheapest of the bin boundaries on every axis: (axis, plane, cost).
-fn best_plane(items: &[(u32, Bounds)], cell: &Bounds) -> Option<(usize, f32, f64)> {
+/// The cheapest of the bin boundaries on the cell's longest axis:
+/// (axis, plane, cost). (Tried: every axis, 3x the binning for trees of
+/// about the same cost on the generated level.)
+fn best_plane(items: &[(u32, Bounds)], cell: &Bounds, p: &TopParams) -> Option<(usize, f32, f64)> {
+    let bins = p.bins;
     let area = cell.area();
     let n = items.len();
     let mut best: Option<(usize, f32, f64)> = None;
-    for axis in 0..3 {
+    let ext = |a: usize| cell.max[a] - cell.min[a];
+    let longest = (0..3).fold(0, |b, a| if ext(a) > ext(b) { a } else { b });
+    for axis in [longest] {
         let (lo, hi) = (cell.min[axis], cell.max[axis]);
         let extent = hi - lo;
         if extent.is_nan() || extent <= 0.0 {
             continue;
         }
-        let scale = BINS as f32 / extent;
-        let bin = |x: f32| (((x - lo) * scale) as usize).min(BINS - 1);
-        let (mut starts, mut ends) = ([0usize; BINS], [0usize; BINS]);
+        let scale = bins as f32 / extent;
+        let bin = |x: f32| (((x - lo) * scale) as usize).min(bins - 1);
+        let (mut starts, mut ends) = ([0u32; MAX_BINS], [0u32; MAX_BINS]);
         for (_, b) in items {
             starts[bin(b.min[axis])] += 1;
             ends[bin(b.max[axis])] += 1;
         }
+        // Child areas in closed form: the cell's faces with this axis's
+        // length `l` are 2 (l (u + v) + u v), `u`, `v` the other two sides
+        // (Bounds::split and area per bin were most of the build's time).
+        let (u, v) = (
+            f64::from(ext((axis + 1) % 3)),
+            f64::from(ext((axis + 2) % 3)),
+        );
+        let (sum, prod) = (u + v, u * v);
+        let inv_area = if area > 0.0 { 1.0 / area } else { 0.0 };
+        let face = |l: f64| {
+            if area > 0.0 {
+                2.0 * (l * sum + prod) * inv_area
+            } else {
+                1.0
+            }
+        };
         let (mut n_below, mut n_ended) = (0, 0);
-        for k in 1..BINS {
-            n_below += starts[k - 1];
-            n_ended += ends[k - 1];
-            let plane = lo + extent * k as f32 / BINS as f32;
+        for k in 1..bins {
+            n_below += starts[k - 1] as usize;
+            n_ended += ends[k - 1] as usize;
+            let plane = lo + extent * k as f32 / bins as f32;
             if plane <= lo || plane >= hi {
                 continue;
             }
-            let (cb, ca) = cell.split(axis, plane);
-            let (pb, pa) = if area > 0.0 {
-                (cb.area() / area, ca.area() / area)
-            } else {
-                (1.0, 1.0)
-            };
-            let cost = TOP_COST.split(pb, n_below, pa, n - n_ended);
+            let (pb, pa) = (face(f64::from(plane - lo)), face(f64::from(hi - plane)));
+            let cost = p.cost.split(pb, n_below, pa, n - n_ended);
             if best.is_none_or(|(_, _, c)| cost < c) {
                 best = Some((axis, plane, cost));
             }
@@ -162,6 +210,9 @@ fn best_plane(items: &[(u32, Bounds)], cell: &Bounds) -> Option<(usize, f32, f64
     }
     best
 }
+
+/// The most bins [`TopParams::bins`] may ask for.
+const MAX_BINS: usize = 64;
 
 /// A scene built on the host: the mesh tree blobs, the instances, the top level.
 #[derive(Clone, Debug)]
@@ -309,12 +360,12 @@ pub fn transform_point(m: &[f32; 12], p: [f32; 3]) -> [f32; 3] {
 /// in instance order, each mesh's triangles in mesh order. Triangle `p` of
 /// instance `i` has index `flattened_offsets(..)[i] + p`.
 #[must_use]
-pub fn flatten_scene(meshes: &[Vec<Triangle>], instances: &[Instance]) -> Vec<Triangle> {
+pub fn flatten_scene<M: AsRef<[Triangle]>>(meshes: &[M], instances: &[Instance]) -> Vec<Triangle> {
     let mut out = Vec::new();
     for inst in instances {
         let m = inst.to_world();
         if let Some(tris) = meshes.get(inst.mesh() as usize) {
-            out.extend(tris.iter().map(|t| Triangle {
+            out.extend(tris.as_ref().iter().map(|t| Triangle {
                 v: t.v.map(|p| transform_point(&m, p)),
             }));
         }
@@ -474,4 +525,58 @@ pub fn trace_scene(scene: &Scene<'_>, offsets: &[u64], rays: &[Ray], hits: &mut 
                 };
             }
         });
+}
+
+/// A scene as the renderer's [`Tracer`](crate::render::Tracer): hits
+/// numbered in the flattened order, shaded on the flattened triangles.
+#[derive(Debug)]
+pub struct SceneTracer<'s, 'a> {
+    scene: &'s Scene<'a>,
+    offsets: Vec<u64>,
+    flat: Vec<Triangle>,
+}
+
+impl<'s, 'a> SceneTracer<'s, 'a> {
+    /// The tracer of `scene` (its flattened triangles are made here).
+    #[must_use]
+    pub fn new(scene: &'s Scene<'a>) -> SceneTracer<'s, 'a> {
+        let meshes: Vec<&[Triangle]> = (0..scene.mesh_count())
+            .map(|m| scene.mesh(m).map_or(&[][..], |t| t.triangles()))
+            .collect();
+        SceneTracer {
+            scene,
+            offsets: scene_offsets(scene),
+            flat: flatten_scene(&meshes, scene.instances()),
+        }
+    }
+}
+
+impl crate::render::Tracer for SceneTracer<'_, '_> {
+    fn triangles(&self) -> &[Triangle] {
+        &self.flat
+    }
+    fn packet_width(&self) -> kdray_kernel::PacketWidth {
+        kdray_kernel::PacketWidth::One
+    }
+    fn closest(&self, rays: &[Ray], hits: &mut [Hit]) {
+        for (h, r) in hits.iter_mut().zip(rays) {
+            *h = flat_hit(&self.offsets, self.scene.closest_hit(r, u32::MAX));
+        }
+    }
+    fn occluded(&self, rays: &[Ray], out: &mut [bool]) {
+        for (o, r) in out.iter_mut().zip(rays) {
+            *o = self.scene.any_hit(r, u32::MAX);
+        }
+    }
+}
+
+/// A scene hit as a hit-file record: `prim` in the flattened order.
+fn flat_hit(offsets: &[u64], s: kdray_kernel::SceneHit) -> Hit {
+    match offsets.get(s.instance as usize) {
+        Some(&at) if s.is_hit() => Hit {
+            prim: u32::try_from(at + u64::from(s.prim)).unwrap_or(kdray_kernel::MISS),
+            ..s.hit()
+        },
+        _ => Hit::MISS,
+    }
 }

@@ -129,30 +129,27 @@ impl Instance {
     /// these boxes and a scene's bounds must hold them.
     #[must_use]
     pub fn world_bounds(&self, local: &Bounds) -> Bounds {
+        // The box's centre through the transform and its half extent
+        // through |M| (Arvo 1990): the exact box of the eight corners.
         let m = self.to_world.map(f64::from);
-        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-        for corner in 0..8 {
-            let p: [f64; 3] = core::array::from_fn(|a| {
-                f64::from(if corner >> a & 1 == 0 {
-                    local.min[a]
-                } else {
-                    local.max[a]
-                })
-            });
-            for (r, (l, h)) in lo.iter_mut().zip(hi.iter_mut()).enumerate() {
-                let w = m[r * 4] * p[0] + m[r * 4 + 1] * p[1] + m[r * 4 + 2] * p[2] + m[r * 4 + 3];
-                *l = l.min(w);
-                *h = h.max(w);
-            }
-        }
-        let mut size = 0.0f64;
-        for a in 0..3 {
-            size = size.max(hi[a] - lo[a]).max(lo[a].abs()).max(hi[a].abs());
-        }
+        let c: [f64; 3] =
+            core::array::from_fn(|a| (f64::from(local.min[a]) + f64::from(local.max[a])) * 0.5);
+        let h: [f64; 3] =
+            core::array::from_fn(|a| (f64::from(local.max[a]) - f64::from(local.min[a])) * 0.5);
+        let row = |r: usize| {
+            let e = |k: usize| m.get(r * 4 + k).copied().unwrap_or(0.0);
+            let centre = e(0) * c[0] + e(1) * c[1] + e(2) * c[2] + e(3);
+            let half = e(0).abs() * h[0] + e(1).abs() * h[1] + e(2).abs() * h[2];
+            (centre - half, centre + half)
+        };
+        let rows = [row(0), row(1), row(2)];
+        let size = rows.iter().fold(0.0f64, |s, &(lo, hi)| {
+            s.max(hi - lo).max(lo.abs()).max(hi.abs())
+        });
         let pad = size * BOX_PAD;
         Bounds {
-            min: lo.map(|x| down(x - pad)),
-            max: hi.map(|x| up(x + pad)),
+            min: rows.map(|(lo, _)| down(lo - pad)),
+            max: rows.map(|(_, hi)| up(hi + pad)),
         }
     }
 

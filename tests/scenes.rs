@@ -7,8 +7,8 @@
 use kdray::kernel::{Instance, Packet8, Ray, Scene, SceneError, SceneHit, Triangle, TriangleTree};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use kdray::tools::instances::{
-    build_scene, build_top_level, flatten_scene, flattened_offsets, generated_level, placement,
-    sphere, torus, world_boxes, SceneParts,
+    build_scene, build_top_level, flatten_scene, flattened_offsets, generated_level, mesh_bounds,
+    placement, sphere, torus, world_boxes, SceneParts,
 };
 use proptest::prelude::*;
 
@@ -77,7 +77,7 @@ proptest! {
         let meshes = small_meshes();
         let p = parts(&meshes, instances);
         let trees = p.trees().unwrap();
-        let scene = Scene::from_parts(&trees, &p.instances, &p.top.nodes, &p.top.prims, p.top.bounds).unwrap();
+        let scene = p.scene(&trees).unwrap();
         let blob = p.write().unwrap();
         let from_blob = blob.scene().unwrap();
         let mut packet_rays = Vec::new();
@@ -115,14 +115,7 @@ fn coincident_copies_tie_to_the_lower_instance() {
         .collect::<Vec<_>>();
     let p = parts(&[sphere(8, 8)], insts);
     let trees = p.trees().unwrap();
-    let scene = Scene::from_parts(
-        &trees,
-        &p.instances,
-        &p.top.nodes,
-        &p.top.prims,
-        p.top.bounds,
-    )
-    .unwrap();
+    let scene = p.scene(&trees).unwrap();
     let ray = Ray {
         origin: [0.1, 0.2, -5.0],
         tmin: 0.0,
@@ -224,14 +217,7 @@ fn a_generated_level_agrees_with_its_flattened_tree() {
     let (meshes, instances) = generated_level(60, 40.0, 7);
     let p = parts(&meshes, instances);
     let trees = p.trees().unwrap();
-    let scene = Scene::from_parts(
-        &trees,
-        &p.instances,
-        &p.top.nodes,
-        &p.top.prims,
-        p.top.bounds,
-    )
-    .unwrap();
+    let scene = p.scene(&trees).unwrap();
     let flat = flatten_scene(&meshes, &p.instances);
     let flat_tree = build(&flat, BuilderKind::default(), &BuildParams::default()).unwrap();
     let flat_view =
@@ -289,14 +275,7 @@ fn a_generated_level_agrees_with_its_flattened_tree() {
 #[test]
 fn the_top_level_is_rebuilt_from_moved_instances() {
     let meshes = small_meshes();
-    let bounds: Vec<_> = meshes
-        .iter()
-        .map(|m| {
-            build(m, BuilderKind::default(), &BuildParams::default())
-                .unwrap()
-                .bounds
-        })
-        .collect();
+    let bounds = mesh_bounds(&meshes).unwrap();
     let (_, mut instances) = generated_level(50, 30.0, 1);
     for frame in 0..3 {
         for (k, inst) in instances.iter_mut().enumerate().take(20) {
@@ -333,4 +312,100 @@ fn the_top_level_is_rebuilt_from_moved_instances() {
             );
         }
     }
+}
+
+/// Standard base64 with padding.
+fn base64(bytes: &[u8]) -> String {
+    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for c in bytes.chunks(3) {
+        let n = (u32::from(c[0]) << 16)
+            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
+            | u32::from(*c.get(2).unwrap_or(&0));
+        for k in 0..4 {
+            if k <= c.len() {
+                out.push(A[(n >> (18 - 6 * k) & 63) as usize] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+/// A glTF file of one quad mesh used by two nodes (one the child of a
+/// moved, scaled parent without a mesh), in the temporary folder.
+fn three_node_gltf() -> std::path::PathBuf {
+    let mut bin = Vec::new();
+    for p in [
+        [0.0f32, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ] {
+        for c in p {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for i in [0u16, 1, 2, 0, 2, 3] {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    let uri = base64(&bin);
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,
+        "scenes":[{{"nodes":[0,1]}}],
+        "nodes":[{{"mesh":0,"translation":[0,0,5]}},
+                 {{"translation":[3,0,0],"scale":[2,2,2],"children":[2]}},
+                 {{"mesh":0,"rotation":[0,0,0.7071068,0.7071068]}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],
+        "buffers":[{{"byteLength":60,"uri":"data:application/octet-stream;base64,{uri}"}}],
+        "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":48}},{{"buffer":0,"byteOffset":48,"byteLength":12}}],
+        "accessors":[{{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+                     {{"bufferView":1,"componentType":5123,"count":6,"type":"SCALAR"}}]}}"#
+    );
+    let path = std::env::temp_dir().join(format!("kdray-scenes-{}.gltf", std::process::id()));
+    std::fs::write(&path, json).unwrap();
+    path
+}
+
+#[test]
+fn gltf_instances_number_triangles_as_the_flattened_load_does() {
+    use kdray::tools::mesh::{load_gltf, load_gltf_instanced, LoadOptions};
+    let path = three_node_gltf();
+    let flat = load_gltf(&path).unwrap();
+    let g = load_gltf_instanced(&path, &LoadOptions::default(), &mut Vec::new()).unwrap();
+    std::fs::remove_file(&path).unwrap();
+    assert_eq!((g.meshes.len(), g.instances.len(), flat.len()), (1, 2, 4));
+    assert_eq!(g.instances.iter().map(|i| i.2).collect::<Vec<_>>(), [0, 2]);
+    let instances: Vec<Instance> = g
+        .instances
+        .iter()
+        .map(|&(mesh, m, node)| Instance::new(mesh, m, node, u32::MAX).unwrap())
+        .collect();
+    let ours = flatten_scene(&g.meshes, &instances);
+    for (a, b) in ours.iter().zip(&flat) {
+        for (p, q) in a.v.iter().zip(&b.v) {
+            for (x, y) in p.iter().zip(q) {
+                assert!((x - y).abs() < 1e-5, "{a:?} vs {b:?}");
+            }
+        }
+    }
+    // A ray through the child node's quad (x in [1, 3], y in [0, 2] at
+    // z = 0: rotated a quarter turn, scaled by 2, moved to x = 3) hits
+    // flattened triangle 2 or 3, as the flattened tree numbers it.
+    let p = parts(&g.meshes, instances);
+    let trees = p.trees().unwrap();
+    let scene = p.scene(&trees).unwrap();
+    let ray = Ray {
+        origin: [2.5, 0.5, -1.0],
+        tmin: 0.0,
+        dir: [0.0, 0.0, 1.0],
+        tmax: f32::INFINITY,
+    };
+    let hit = scene.closest_hit(&ray, u32::MAX);
+    assert_eq!(hit.instance, 1);
+    let sizes = [g.meshes[0].len()];
+    let flat_prim = flattened_offsets(&sizes, &p.instances)[1] + u64::from(hit.prim);
+    let want = kdray::kernel::closest_hit_brute(&flat, &ray);
+    assert_eq!(flat_prim, u64::from(want.prim));
 }

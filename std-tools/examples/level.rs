@@ -6,7 +6,6 @@
 use kdray_tools::blob::write_triangle_tree;
 use kdray_tools::builders::{build, BuildParams, BuilderKind};
 use kdray_tools::instances::{build_scene, flatten_scene, generated_level};
-use std::io::Write as _;
 use std::path::PathBuf;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -28,16 +27,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         dir.join("flat.kdt"),
         write_triangle_tree(&tree, &flat)?.as_bytes(),
     )?;
-    let mut obj = Vec::new();
-    for t in &flat {
-        for p in &t.v {
-            writeln!(obj, "v {:?} {:?} {:?}", p[0], p[1], p[2])?;
-        }
-    }
-    for i in 0..flat.len() {
-        writeln!(obj, "f {} {} {}", 3 * i + 1, 3 * i + 2, 3 * i + 3)?;
-    }
-    std::fs::write(dir.join("flat.obj"), obj)?;
+    std::fs::write(dir.join("flat.obj"), kdray_tools::mesh::obj_text(&flat))?;
     println!(
         "{} instances, {} flattened triangles: scene {} bytes, flattened tree {} bytes",
         parts.instances.len(),

@@ -3,8 +3,10 @@
 //! (then, to try other parameters: intersection cost, bins, leaf size,
 //! extra depth).
 
-use kdray_tools::builders::{build, BuildParams, BuilderKind, CostModel};
-use kdray_tools::instances::{build_top_level_with, generated_level, world_boxes, TopParams};
+use kdray_tools::builders::CostModel;
+use kdray_tools::instances::{
+    build_top_level_with, generated_level, mesh_bounds, world_boxes, TopParams,
+};
 use std::time::Instant;
 
 fn main() {
@@ -21,14 +23,7 @@ fn main() {
         extra_depth: arg(5).map_or(d.extra_depth, |x| x as u32),
     };
     let (meshes, instances) = generated_level(n / 2, (n as f32).sqrt() * 2.0, 1);
-    let bounds: Vec<_> = meshes
-        .iter()
-        .map(|m| {
-            build(m, BuilderKind::default(), &BuildParams::default())
-                .unwrap()
-                .bounds
-        })
-        .collect();
+    let bounds = mesh_bounds(&meshes).expect("the generated meshes build");
     let (mut best_boxes, mut best_top) = (f64::INFINITY, f64::INFINITY);
     let (mut nodes, mut refs) = (0, 0);
     for _ in 0..50 {

@@ -50,6 +50,19 @@ impl TopParams {
     };
 }
 
+/// Each mesh's bounds as its tree's root cell (the default builder's).
+///
+/// # Errors
+/// [`BuildError`] for a mesh the builder refuses.
+pub fn mesh_bounds(meshes: &[Vec<Triangle>]) -> Result<Vec<Bounds>, BuildError> {
+    meshes
+        .iter()
+        .map(|m| {
+            builders::build(m, BuilderKind::default(), &BuildParams::default()).map(|t| t.bounds)
+        })
+        .collect()
+}
+
 /// The world box of each instance, from its mesh's bounds.
 #[must_use]
 pub fn world_boxes(mesh_bounds: &[Bounds], instances: &[Instance]) -> Vec<Bounds> {
@@ -284,6 +297,24 @@ impl SceneParts {
     /// The kernel's error for a mesh blob (never for one this module wrote).
     pub fn trees(&self) -> Result<Vec<TriangleTree<'_>>, kdray_kernel::BlobError> {
         self.meshes.iter().map(Blob::tree).collect()
+    }
+
+    /// The scene over these parts and `trees` (from [`SceneParts::trees`]),
+    /// validated ([`Scene::from_parts`]).
+    ///
+    /// # Errors
+    /// The kernel's [`SceneError`](kdray_kernel::SceneError) (never for parts this module built).
+    pub fn scene<'s>(
+        &'s self,
+        trees: &'s [TriangleTree<'s>],
+    ) -> Result<Scene<'s>, kdray_kernel::SceneError> {
+        Scene::from_parts(
+            trees,
+            &self.instances,
+            &self.top.nodes,
+            &self.top.prims,
+            self.top.bounds,
+        )
     }
 
     /// The scene blob.

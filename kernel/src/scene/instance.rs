@@ -124,7 +124,7 @@ impl Instance {
 
     /// A box in world space holding the instance of a mesh whose bounds
     /// are `local`: the eight corners through the transform in `f64`,
-    /// padded by [`BOX_PAD`] of the box's size and distance from the
+    /// padded by 2^-12 of the box's size and distance from the
     /// origin and rounded outwards. The top-level tree is built over
     /// these boxes and a scene's bounds must hold them.
     #[must_use]

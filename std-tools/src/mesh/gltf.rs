@@ -42,7 +42,7 @@ pub(super) fn read(
 
 /// A glTF file with its mesh references kept: each mesh's triangles once,
 /// in its own space, and one instance per node that has a mesh, in the
-/// depth-first node order [`read`] flattens them in, so triangle `p` of
+/// depth-first node order [`load_gltf`] flattens them in, so triangle `p` of
 /// instance `i` is triangle `(triangles of instances before i) + p` of
 /// [`load_gltf`]. Meshes are numbered by first use; meshes without
 /// triangles are left out (they add none to the flattened order).

@@ -9,7 +9,7 @@
 use crate::message::write_message;
 use crate::{check_count, check_ptr, status, status_text, KdrayStatus};
 use core::ffi::c_char;
-use kdray_kernel::{BlobError, PointTree, TriangleTree};
+use kdray_kernel::{BlobError, PointTree, Scene, SceneError, TriangleTree};
 
 /// The size of a tree handle in 64-bit words (room for the kernel's tree
 /// view on 64-bit targets, with space to grow).
@@ -50,13 +50,16 @@ pub(crate) trait Handle: Sized {
     type Tree: Copy;
     /// The tag word of an opened handle of this kind (ASCII, so a dump reads it).
     const TAG: u64;
+    /// Why the kernel refused a blob.
+    type Error: core::fmt::Display;
     /// The kernel's validating loader for this kind.
-    fn from_bytes(bytes: &'static [u8]) -> Result<Self::Tree, BlobError>;
+    fn from_bytes(bytes: &'static [u8]) -> Result<Self::Tree, Self::Error>;
 }
 
 impl Handle for KdrayTriangleTree {
     type Tree = TriangleTree<'static>;
     const TAG: u64 = u64::from_le_bytes(*b"kdrayTRI");
+    type Error = BlobError;
     fn from_bytes(bytes: &'static [u8]) -> Result<Self::Tree, BlobError> {
         TriangleTree::from_bytes(bytes)
     }
@@ -65,8 +68,27 @@ impl Handle for KdrayTriangleTree {
 impl Handle for KdrayPointTree {
     type Tree = PointTree<'static>;
     const TAG: u64 = u64::from_le_bytes(*b"kdrayPTS");
+    type Error = BlobError;
     fn from_bytes(bytes: &'static [u8]) -> Result<Self::Tree, BlobError> {
         PointTree::from_bytes(bytes)
+    }
+}
+
+/// An opened scene, as [`KdrayTriangleTree`] is for one mesh; opened by
+/// `kdray_scene_open` on a scene blob (`kdray build --instances`).
+#[repr(C)]
+#[derive(Clone, Copy)]
+pub struct KdrayScene {
+    /// Private to the library.
+    pub opaque: [u64; KDRAY_HANDLE_WORDS],
+}
+
+impl Handle for KdrayScene {
+    type Tree = Scene<'static>;
+    const TAG: u64 = u64::from_le_bytes(*b"kdraySCN");
+    type Error = SceneError;
+    fn from_bytes(bytes: &'static [u8]) -> Result<Self::Tree, SceneError> {
+        Scene::from_bytes(bytes)
     }
 }
 
@@ -77,6 +99,8 @@ const _: () = {
     assert!(size_of::<Tagged<PointTree<'static>>>() <= size_of::<KdrayPointTree>());
     assert!(align_of::<Tagged<TriangleTree<'static>>>() <= align_of::<KdrayTriangleTree>());
     assert!(align_of::<Tagged<PointTree<'static>>>() <= align_of::<KdrayPointTree>());
+    assert!(size_of::<Tagged<Scene<'static>>>() <= size_of::<KdrayScene>());
+    assert!(align_of::<Tagged<Scene<'static>>>() <= align_of::<KdrayScene>());
 };
 
 /// Marks `handle` not open (so a failed open cannot leave an old tree

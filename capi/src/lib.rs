@@ -26,8 +26,9 @@ mod handle;
 mod message;
 mod points;
 mod rays;
+mod scenes;
 
-pub use handle::{KdrayPointTree, KdrayTriangleTree, KDRAY_HANDLE_WORDS};
+pub use handle::{KdrayPointTree, KdrayScene, KdrayTriangleTree, KDRAY_HANDLE_WORDS};
 pub use points::{kdray_knn, kdray_nearest, kdray_points_open, kdray_within, KdrayNeighbour};
 pub use rays::{
     kdray_any_hit, kdray_any_hit16, kdray_any_hit4, kdray_any_hit8, kdray_any_hits,
@@ -35,6 +36,7 @@ pub use rays::{
     kdray_closest_hits, kdray_triangles_open, KdrayHit, KdrayHit16, KdrayHit4, KdrayHit8,
     KdrayHitN, KdrayRay, KdrayRay16, KdrayRay4, KdrayRay8, KdrayRayN, KDRAY_MISS, KDRAY_OCCLUDED,
 };
+pub use scenes::{kdray_scene_any_hit, kdray_scene_closest_hit, kdray_scene_open, KdraySceneHit};
 
 /// What a call did: `KDRAY_STATUS_OK`, or why it did nothing.
 ///

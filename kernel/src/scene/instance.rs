@@ -221,7 +221,7 @@ pub fn inverse_affine(m: &[f32; 12]) -> Option<[f32; 12]> {
         return None;
     }
     let a = m.map(f64::from);
-    let e = |r: usize, c: usize| a[r * 4 + c];
+    let e = |r: usize, c: usize| a.get(r * 4 + c).copied().unwrap_or(0.0);
     let cof = [
         [
             e(1, 1) * e(2, 2) - e(1, 2) * e(2, 1),

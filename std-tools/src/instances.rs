@@ -134,19 +134,22 @@ fn split_cell(
         return leaf(items);
     }
     let (cb, ca) = cell.split(axis, plane);
+    // Below when the box starts before the plane, above when it ends
+    // after it or starts on it: every point of the box in a cell that
+    // holds it (cells are closed). The below side keeps `items`' buffer;
+    // both stay in index order, so leaves need no sort.
     let mut above = Vec::with_capacity(n / 2 + 1);
-    let mut below = Vec::with_capacity(n / 2 + 1);
-    for (i, b) in items.drain(..) {
-        // Below when the box starts before the plane, above when it ends
-        // after it or starts on it: every point of the box in a cell that
-        // holds it (cells are closed).
-        if b.min[axis] < plane {
-            below.push((i, b.intersect(&cb)));
-        }
+    for (i, b) in &items {
         if b.max[axis] > plane || b.min[axis] >= plane {
-            above.push((i, b.intersect(&ca)));
+            above.push((*i, b.intersect(&ca)));
         }
     }
+    items.retain_mut(|(_, b)| {
+        let keep = b.min[axis] < plane;
+        *b = b.intersect(&cb);
+        keep
+    });
+    let below = items;
     if below.len() == n && above.len() == n {
         // Every box straddles the plane: splitting gains nothing.
         return leaf(below);
@@ -160,11 +163,10 @@ fn split_cell(
     )
 }
 
+/// A leaf of `items` (in index order, each once: the partition keeps
+/// both).
 fn leaf(items: Vec<(u32, Bounds)>) -> BuildNode {
-    let mut ids: Vec<u32> = items.into_iter().map(|(i, _)| i).collect();
-    ids.sort_unstable();
-    ids.dedup();
-    BuildNode::Leaf(ids)
+    BuildNode::Leaf(items.into_iter().map(|(i, _)| i).collect())
 }
 
 /// The cheapest of the bin boundaries on the cell's longest axis:

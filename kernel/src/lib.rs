@@ -10,6 +10,10 @@
 //!   [`MAX_DEPTH`] entries; [`TriangleTree::closest_hit8`] and friends
 //!   ([`Packet8`] and friends) trace 4, 8 or 16 rays at once with the same
 //!   answers.
+//! - [`Scene::from_bytes`] (a scene blob) or [`Scene::from_parts`] (mesh
+//!   trees the engine holds, an [`Instance`] table and a top-level tree)
+//!   gives a scene of instanced meshes; [`Scene::closest_hit`] and
+//!   [`Scene::any_hit`] answer as [`Scene::closest_hit_brute`] does.
 //! - [`PointTreeN::from_bytes`] does the same for a point tree over
 //!   D-dimensional `f32` or `f64` points ([`PointTree`]: 3-D `f32`), which
 //!   answers [`PointTreeN::nearest`], [`PointTreeN::knn`] and

@@ -25,7 +25,7 @@ fn main() {
     let (meshes, instances) = generated_level(n / 2, (n as f32).sqrt() * 2.0, 1);
     let bounds = mesh_bounds(&meshes).expect("the generated meshes build");
     let (mut best_boxes, mut best_top) = (f64::INFINITY, f64::INFINITY);
-    let (mut nodes, mut refs) = (0, 0);
+    let (mut nodes, mut refs, mut print) = (0, 0, 0u64);
     for _ in 0..50 {
         let t = Instant::now();
         let boxes = world_boxes(&bounds, &instances);
@@ -36,9 +36,15 @@ fn main() {
         best_top = best_top.min(t_all - t_boxes);
         nodes = top.nodes.len();
         refs = top.prims.len();
+        // FNV-1a over the laid-out tree: equal prints, the same tree.
+        print = format!("{:?}{:?}", top.nodes, top.prims)
+            .bytes()
+            .fold(0xcbf2_9ce4_8422_2325, |h, b| {
+                (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
+            });
     }
     println!(
-        "{} instances: world boxes {:.3} ms, top level {:.3} ms ({nodes} nodes, {refs} listed), best of 50, {p:?}",
+        "{} instances: world boxes {:.3} ms, top level {:.3} ms ({nodes} nodes, {refs} listed, print {print:016x}), best of 50, {p:?}",
         instances.len(),
         best_boxes * 1e3,
         best_top * 1e3

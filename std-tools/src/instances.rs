@@ -10,15 +10,13 @@
 //! kept. A deforming mesh rebuilds its own tree.
 
 use crate::blob::{write_triangle_tree, Blob};
-use crate::builders::{
-    self, flatten, BuildError, BuildNode, BuildParams, BuilderKind, BuiltTree, CostModel,
-};
+use crate::builders::{self, BuildError, BuildParams, BuilderKind, BuiltTree, CostModel};
 use crate::rng::Rng;
 use kdray_kernel::wire::{
     blob_checksum, Header, CHECKSUM_OFFSET, ENDIAN_CHECK, HEADER_LEN, MAGIC, VERSION,
 };
 use kdray_kernel::{
-    Axis, Bounds, Hit, Instance, Ray, Scene, Triangle, TriangleTree, WriteError, KIND_SCENE,
+    Axis, Bounds, Hit, Instance, Node, Ray, Scene, Triangle, TriangleTree, WriteError, KIND_SCENE,
     MAX_DEPTH, MESH_ALIGN,
 };
 
@@ -84,10 +82,12 @@ pub fn build_top_level(boxes: &[Bounds]) -> BuiltTree {
 }
 
 /// The top-level tree over instance world boxes: SAH at `p.bins` bin
-/// boundaries per axis, each box clipped to its cell and listed in every
-/// leaf whose cell it overlaps. Boxes that are empty (an instance of a
-/// missing mesh) are left out. One thread (docs/results.md, `## Scenes`,
-/// has its time for 10,000 instances).
+/// boundaries on each cell's longest axis, each box listed in every leaf
+/// whose cell it overlaps. Boxes that are empty (an instance of a missing
+/// mesh) are left out. One thread, no allocation per cell: the cells'
+/// instance indices live in one stack-like scratch buffer and the nodes
+/// are written straight into the kernel's layout (docs/results.md,
+/// `## Scenes`, has its time for 10,000 instances).
 #[must_use]
 pub fn build_top_level_with(boxes: &[Bounds], p: &TopParams) -> BuiltTree {
     let bounds = boxes
@@ -99,83 +99,110 @@ pub fn build_top_level_with(boxes: &[Bounds], p: &TopParams) -> BuiltTree {
     } else {
         Bounds::ZERO
     };
-    let items: Vec<(u32, Bounds)> = boxes
-        .iter()
-        .enumerate()
-        .filter(|(_, b)| b.min[0] <= b.max[0])
-        .map(|(i, b)| (i as u32, *b))
+    // Boxes are not clipped to their cells: a cell holds only boxes that
+    // overlap it, so a box's side of a plane inside the cell and its bins
+    // (clamped to the cell's) are those of its clipped box.
+    let mut refs: Vec<u32> = (0..boxes.len() as u32)
+        .filter(|&i| boxes[i as usize].min[0] <= boxes[i as usize].max[0])
         .collect();
-    let log2 = usize::BITS - items.len().leading_zeros();
+    let log2 = usize::BITS - refs.len().leading_zeros();
     let limit = (p.extra_depth + log2).min(MAX_DEPTH);
     let p = TopParams {
         bins: p.bins.clamp(2, MAX_BINS),
         ..*p
     };
-    let root = split_cell(items, bounds, 0, limit, &p);
-    flatten(root, bounds)
+    let mut out = BuiltTree {
+        nodes: vec![Node::EMPTY_LEAF],
+        prims: Vec::with_capacity(refs.len() * 5),
+        bounds,
+        max_depth: 0,
+    };
+    let mut interiors = 0usize;
+    // Cells still to build: (slot, start of its references in `refs`,
+    // cell, depth). The top cell's references run to the end of `refs`;
+    // the cells beneath it end where the next one starts.
+    let mut todo = vec![(0usize, 0usize, bounds, 0u32)];
+    while let Some((slot, start, cell, depth)) = todo.pop() {
+        out.max_depth = out.max_depth.max(depth);
+        let n = refs.len() - start;
+        let split = if n <= p.leaf_size.max(1) || depth >= limit {
+            None
+        } else {
+            best_plane(boxes, &refs[start..], &cell, &p)
+                .filter(|&(_, _, cost)| cost < p.cost.leaf(n))
+        };
+        let Some((axis, plane, _)) = split else {
+            out.nodes[slot] = leaf(&refs[start..], &mut out.prims);
+            refs.truncate(start);
+            continue;
+        };
+        // Below when the box starts before the plane, above when it ends
+        // after it or starts on it: every point of the box in a cell that
+        // holds it (cells are closed). The above side is compacted in
+        // place, the below side appended and moved down beside it (it is
+        // built first, as the layout numbers interior nodes depth-first);
+        // both stay in index order, so leaves need no sort.
+        let end = refs.len();
+        let mut n_above = 0;
+        for k in start..end {
+            let i = refs[k];
+            let b = &boxes[i as usize];
+            if b.min[axis] < plane {
+                refs.push(i);
+            }
+            if b.max[axis] > plane || b.min[axis] >= plane {
+                refs[start + n_above] = i;
+                n_above += 1;
+            }
+        }
+        let n_below = refs.len() - end;
+        if n_below == n && n_above == n {
+            // Every box straddles the plane: splitting gains nothing.
+            refs.truncate(end);
+            out.nodes[slot] = leaf(&refs[start..], &mut out.prims);
+            refs.truncate(start);
+            continue;
+        }
+        refs.copy_within(end.., start + n_above);
+        refs.truncate(start + n_above + n_below);
+        let child = 2 * interiors + 1;
+        interiors += 1;
+        out.nodes[slot] = Node::interior([Axis::X, Axis::Y, Axis::Z][axis], plane, child as u32)
+            .unwrap_or(Node::EMPTY_LEAF);
+        out.nodes.resize(child + 2, Node::EMPTY_LEAF);
+        let (cb, ca) = cell.split(axis, plane);
+        todo.push((child + 1, start, ca, depth + 1));
+        todo.push((child, start + n_above, cb, depth + 1));
+    }
+    out
 }
 
-/// One cell of the top-level build: a leaf, or the best binned plane.
-fn split_cell(
-    mut items: Vec<(u32, Bounds)>,
-    cell: Bounds,
-    depth: u32,
-    limit: u32,
-    p: &TopParams,
-) -> BuildNode {
-    let n = items.len();
-    if n <= p.leaf_size.max(1) || depth >= limit {
-        return leaf(items);
-    }
-    let Some((axis, plane, cost)) = best_plane(&items, &cell, p) else {
-        return leaf(items);
-    };
-    if cost >= p.cost.leaf(n) {
-        return leaf(items);
-    }
-    let (cb, ca) = cell.split(axis, plane);
-    // Below when the box starts before the plane, above when it ends
-    // after it or starts on it: every point of the box in a cell that
-    // holds it (cells are closed). The below side keeps `items`' buffer;
-    // both stay in index order, so leaves need no sort.
-    let mut above = Vec::with_capacity(n / 2 + 1);
-    for (i, b) in &items {
-        if b.max[axis] > plane || b.min[axis] >= plane {
-            above.push((*i, b.intersect(&ca)));
+/// A leaf of `refs` (in index order, each once: the partition keeps
+/// both); a run of several goes to `prims`.
+fn leaf(refs: &[u32], prims: &mut Vec<u32>) -> Node {
+    match refs {
+        [] => Node::EMPTY_LEAF,
+        [i] => Node::leaf(1, *i).unwrap_or(Node::EMPTY_LEAF),
+        _ => {
+            let at = prims.len() as u32;
+            prims.extend_from_slice(refs);
+            Node::leaf(refs.len() as u32, at).unwrap_or(Node::EMPTY_LEAF)
         }
     }
-    items.retain_mut(|(_, b)| {
-        let keep = b.min[axis] < plane;
-        *b = b.intersect(&cb);
-        keep
-    });
-    let below = items;
-    if below.len() == n && above.len() == n {
-        // Every box straddles the plane: splitting gains nothing.
-        return leaf(below);
-    }
-    let axis_name = [Axis::X, Axis::Y, Axis::Z][axis];
-    BuildNode::interior(
-        axis_name,
-        plane,
-        split_cell(below, cb, depth + 1, limit, p),
-        split_cell(above, ca, depth + 1, limit, p),
-    )
-}
-
-/// A leaf of `items` (in index order, each once: the partition keeps
-/// both).
-fn leaf(items: Vec<(u32, Bounds)>) -> BuildNode {
-    BuildNode::Leaf(items.into_iter().map(|(i, _)| i).collect())
 }
 
 /// The cheapest of the bin boundaries on the cell's longest axis:
 /// (axis, plane, cost). (Tried: every axis, 3x the binning for trees of
 /// about the same cost on the generated level.)
-fn best_plane(items: &[(u32, Bounds)], cell: &Bounds, p: &TopParams) -> Option<(usize, f32, f64)> {
+fn best_plane(
+    boxes: &[Bounds],
+    refs: &[u32],
+    cell: &Bounds,
+    p: &TopParams,
+) -> Option<(usize, f32, f64)> {
     let bins = p.bins;
     let area = cell.area();
-    let n = items.len();
+    let n = refs.len();
     let mut best: Option<(usize, f32, f64)> = None;
     let ext = |a: usize| cell.max[a] - cell.min[a];
     let longest = (0..3).fold(0, |b, a| if ext(a) > ext(b) { a } else { b });
@@ -186,11 +213,14 @@ fn best_plane(items: &[(u32, Bounds)], cell: &Bounds, p: &TopParams) -> Option<(
             continue;
         }
         let scale = bins as f32 / extent;
-        let bin = |x: f32| (((x - lo) * scale) as usize).min(bins - 1);
+        // Clamped to the cell's bins on both sides (a negative or NaN
+        // offset casts to 0).
+        let bin = |x: f32| (((x.max(lo) - lo) * scale) as usize).min(bins - 1);
         let (mut starts, mut ends) = ([0u32; MAX_BINS], [0u32; MAX_BINS]);
-        for (_, b) in items {
+        for &i in refs {
+            let b = &boxes[i as usize];
             starts[bin(b.min[axis])] += 1;
-            ends[bin(b.max[axis])] += 1;
+            ends[bin(b.max[axis].min(hi))] += 1;
         }
         // Child areas in closed form: the cell's faces with this axis's
         // length `l` are 2 (l (u + v) + u v), `u`, `v` the other two sides

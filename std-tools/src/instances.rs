@@ -142,20 +142,22 @@ pub fn build_top_level_with(boxes: &[Bounds], p: &TopParams) -> BuiltTree {
         // place, the below side appended and moved down beside it (it is
         // built first, as the layout numbers interior nodes depth-first);
         // both stay in index order, so leaves need no sort.
+        // Branch-free: each reference is written to both sides' next slot
+        // and kept where its side holds it (the planes' sides are
+        // unpredictable).
         let end = refs.len();
-        let mut n_above = 0;
-        for k in start..end {
-            let i = refs[k];
+        refs.resize(end + n + 1, 0);
+        let (cur, spare) = refs[start..].split_at_mut(n);
+        let (mut n_above, mut n_below) = (0, 0);
+        for k in 0..n {
+            let i = cur[k];
             let b = &boxes[i as usize];
-            if b.min[axis] < plane {
-                refs.push(i);
-            }
-            if b.max[axis] > plane || b.min[axis] >= plane {
-                refs[start + n_above] = i;
-                n_above += 1;
-            }
+            spare[n_below] = i;
+            n_below += usize::from(b.min[axis] < plane);
+            cur[n_above] = i;
+            n_above += usize::from(b.max[axis] > plane || b.min[axis] >= plane);
         }
-        let n_below = refs.len() - end;
+        refs.truncate(end + n_below);
         if n_below == n && n_above == n {
             // Every box straddles the plane: splitting gains nothing.
             refs.truncate(end);

@@ -195,7 +195,9 @@ fn leaf(refs: &[u32], prims: &mut Vec<u32>) -> Node {
 
 /// The cheapest of the bin boundaries on the cell's longest axis:
 /// (axis, plane, cost). (Tried: every axis, 3x the binning for trees of
-/// about the same cost on the generated level.)
+/// about the same cost on the generated level. Tried: counting the
+/// children's bins during the parent's partition, 2x slower: leaves bin
+/// too, and zeroed bin arrays ride on the stack.)
 fn best_plane(
     boxes: &[Bounds],
     refs: &[u32],

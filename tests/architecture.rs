@@ -12,6 +12,7 @@ const LAYERS: &[&[&str]] = &[
     &["triangle"],
     &["blob"],
     &["triangle_tree", "points"],
+    &["scene"],
 ];
 
 fn layer(module: &str) -> Option<usize> {

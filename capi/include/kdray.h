@@ -252,6 +252,30 @@ typedef struct {
 // The hits of a packet of 16 rays.
 typedef KdrayHitN_16 KdrayHit16;
 
+// An opened scene, as [`KdrayTriangleTree`] is for one mesh; opened by
+// `kdray_scene_open` on a scene blob (`kdray build --instances`).
+typedef struct {
+  // Private to the library.
+  uint64_t opaque[KDRAY_HANDLE_WORDS];
+} KdrayScene;
+
+// A scene's closest hit: 20 bytes. `prim_id` is the triangle's index in
+// its instance's mesh, `inst_id` the instance's index in the scene (its
+// user id is in the scene blob's instance table); a miss is
+// `t = INFINITY`, `prim_id = inst_id = KDRAY_MISS`, `u = v = 0`.
+typedef struct {
+  // Ray parameter of the hit (`INFINITY` for a miss).
+  float t;
+  // Index of the triangle hit in its mesh.
+  uint32_t prim_id;
+  // Barycentric weight of vertex 1.
+  float u;
+  // Barycentric weight of vertex 2.
+  float v;
+  // Index of the instance hit.
+  uint32_t inst_id;
+} KdraySceneHit;
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -598,6 +622,51 @@ KdrayStatus kdray_any_hits(const KdrayTriangleTree *tree,
                            const KdrayRay *rays,
                            int32_t *occluded,
                            size_t count);
+
+// Opens the scene blob `blob[0..len]` into `*scene`, validating all of it
+// (header, sections, checksum, every mesh tree, every instance, the top
+// level): O(len), no allocation, no copy. Statuses and `message` as
+// `kdray_triangles_open`.
+//
+// # Preconditions
+// As `kdray_triangles_open`, with `scene` for `tree`.
+//
+// # Safety
+// As the preconditions.
+KdrayStatus kdray_scene_open(KdrayScene *scene,
+                             const uint8_t *blob,
+                             size_t len,
+                             char *message,
+                             size_t message_len);
+
+// The closest hit of `*ray` among the instances of `*scene` whose mask
+// shares a bit with `mask`, written to `*hit`: the smallest `t`, then the
+// lower instance, then the lower triangle, bit for bit as the Rust API.
+//
+// # Preconditions
+// - `scene`: opened by `kdray_scene_open` (else `KDRAY_STATUS_NOT_OPEN`),
+//   its blob still alive and unchanged.
+// - `ray`: non-null, 4-byte aligned; `hit`: non-null, 4-byte aligned.
+//
+// # Safety
+// As the preconditions.
+KdrayStatus kdray_scene_closest_hit(const KdrayScene *scene,
+                                    const KdrayRay *ray,
+                                    uint32_t mask,
+                                    KdraySceneHit *hit);
+
+// Whether `*ray` hits any instance of `*scene` that `mask` selects, in
+// `[tnear, tfar]`: `*occluded` is 1 if so, else 0.
+//
+// # Preconditions
+// As `kdray_scene_closest_hit`; `occluded` non-null and 4-byte aligned.
+//
+// # Safety
+// As the preconditions.
+KdrayStatus kdray_scene_any_hit(const KdrayScene *scene,
+                                const KdrayRay *ray,
+                                uint32_t mask,
+                                int32_t *occluded);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -10,7 +10,7 @@ use crate::message::write_message;
 use crate::{check_count, check_ptr, status, status_text, KdrayStatus};
 use core::ffi::c_char;
 use core::fmt;
-use kdray_kernel::{BlobError, PointTreeN, Scalar, TriangleTree};
+use kdray_kernel::{BlobError, PointTreeN, Scalar, Scene, SceneError, TriangleTree};
 
 /// The size of a tree handle in 64-bit words (room for the kernel's tree
 /// view on 64-bit targets, with space to grow).
@@ -51,8 +51,10 @@ pub(crate) trait View: Copy {
     type Handle;
     /// The tag word of a handle holding this view (ASCII, so a dump reads it).
     const TAG: u64;
+    /// Why the kernel refused a blob.
+    type Error: fmt::Display;
     /// The kernel's validating loader for this view.
-    fn from_bytes(bytes: &'static [u8]) -> Result<Self, BlobError>;
+    fn from_bytes(bytes: &'static [u8]) -> Result<Self, Self::Error>;
     /// What a handle of the right C type but another tag is: not open, or
     /// (a point tree of another shape) the wrong shape for the call.
     fn mismatch(_tag: u64) -> KdrayStatus {
@@ -63,6 +65,7 @@ pub(crate) trait View: Copy {
 impl View for TriangleTree<'static> {
     type Handle = KdrayTriangleTree;
     const TAG: u64 = u64::from_le_bytes(*b"kdrayTRI");
+    type Error = BlobError;
     fn from_bytes(bytes: &'static [u8]) -> Result<Self, BlobError> {
         TriangleTree::from_bytes(bytes)
     }
@@ -79,6 +82,7 @@ impl<const D: usize, S: Scalar> View for PointTreeN<'static, D, S> {
         let [a, b, c, d, e, f] = POINT_TAG;
         u64::from_le_bytes([a, b, c, d, e, f, D as u8, S::BYTES as u8])
     };
+    type Error = BlobError;
     fn from_bytes(bytes: &'static [u8]) -> Result<Self, BlobError> {
         PointTreeN::from_bytes(bytes)
     }
@@ -88,6 +92,24 @@ impl<const D: usize, S: Scalar> View for PointTreeN<'static, D, S> {
         } else {
             KdrayStatus::NotOpen
         }
+    }
+}
+
+/// An opened scene, as [`KdrayTriangleTree`] is for one mesh; opened by
+/// `kdray_scene_open` on a scene blob (`kdray build --instances`).
+#[repr(C)]
+#[derive(Clone, Copy)]
+pub struct KdrayScene {
+    /// Private to the library.
+    pub opaque: [u64; KDRAY_HANDLE_WORDS],
+}
+
+impl View for Scene<'static> {
+    type Handle = KdrayScene;
+    const TAG: u64 = u64::from_le_bytes(*b"kdraySCN");
+    type Error = SceneError;
+    fn from_bytes(bytes: &'static [u8]) -> Result<Self, SceneError> {
+        Scene::from_bytes(bytes)
     }
 }
 
@@ -186,7 +208,7 @@ pub(crate) unsafe fn open<V: View>(
         open_with(handle, blob, len, message, message_len, |bytes| {
             let tree = V::from_bytes(bytes)?;
             store(handle, tree);
-            Ok::<(), BlobError>(())
+            Ok::<(), V::Error>(())
         })
     }
 }

@@ -26,8 +26,9 @@ mod handle;
 mod message;
 mod points;
 mod rays;
+mod scenes;
 
-pub use handle::{KdrayPointTree, KdrayTriangleTree, KDRAY_HANDLE_WORDS};
+pub use handle::{KdrayPointTree, KdrayScene, KdrayTriangleTree, KDRAY_HANDLE_WORDS};
 pub use points::{
     kdray_knn, kdray_knn_f32, kdray_knn_f64, kdray_nearest, kdray_nearest_f32, kdray_nearest_f64,
     kdray_points_open, kdray_points_shape, kdray_within, kdray_within_f32, kdray_within_f64,
@@ -39,6 +40,7 @@ pub use rays::{
     kdray_closest_hits, kdray_triangles_open, KdrayHit, KdrayHit16, KdrayHit4, KdrayHit8,
     KdrayHitN, KdrayRay, KdrayRay16, KdrayRay4, KdrayRay8, KdrayRayN, KDRAY_MISS, KDRAY_OCCLUDED,
 };
+pub use scenes::{kdray_scene_any_hit, kdray_scene_closest_hit, kdray_scene_open, KdraySceneHit};
 
 /// What a call did: `KDRAY_STATUS_OK`, or why it did nothing.
 ///

@@ -570,3 +570,82 @@ fn a_query_of_another_shape_is_refused() {
         "{msg}"
     );
 }
+
+static SCENE: &kdray_kernel::Aligned<[u8]> = include_aligned!("../tests/data/two-quads-scene.kdt");
+
+#[test]
+fn a_scene_answers_as_the_kernel_and_a_tree_handle_is_not_a_scene() {
+    let mut h = KdrayScene {
+        opaque: [0; KDRAY_HANDLE_WORDS],
+    };
+    let mut msg = [0 as core::ffi::c_char; 256];
+    // A triangle blob is refused, with the kernel's sentence.
+    // SAFETY: a live handle, the static blob, a 256-byte message buffer.
+    let s = unsafe {
+        kdray_scene_open(
+            &mut h,
+            CUBE.bytes.as_ptr(),
+            CUBE.bytes.len(),
+            msg.as_mut_ptr(),
+            msg.len(),
+        )
+    };
+    assert_eq!(s, KdrayStatus::InvalidBlob);
+    // SAFETY: write_message NUL-terminates.
+    let text = unsafe { CStr::from_ptr(msg.as_ptr()) }
+        .to_str()
+        .unwrap()
+        .to_string();
+    assert!(text.contains("kind"), "{text}");
+    // SAFETY: as above.
+    let s = unsafe {
+        kdray_scene_open(
+            &mut h,
+            SCENE.bytes.as_ptr(),
+            SCENE.bytes.len(),
+            msg.as_mut_ptr(),
+            msg.len(),
+        )
+    };
+    assert_eq!(s, KdrayStatus::Ok);
+    let scene = kdray_kernel::Scene::from_bytes(&SCENE.bytes).unwrap();
+    let ray = KdrayRay {
+        org_x: 2.5,
+        org_y: 0.5,
+        org_z: -1.0,
+        tnear: 0.0,
+        dir_x: 0.0,
+        dir_y: 0.0,
+        dir_z: 1.0,
+        tfar: f32::INFINITY,
+    };
+    let mut hit = KdraySceneHit::zeroed();
+    let mut occluded = 0;
+    for mask in [u32::MAX, 0] {
+        // SAFETY: live handle and records.
+        assert_eq!(
+            unsafe { kdray_scene_closest_hit(&h, &ray, mask, &mut hit) },
+            KdrayStatus::Ok
+        );
+        let want = scene.closest_hit(&ray.into(), mask);
+        assert_eq!(bytemuck::cast::<_, [u32; 5]>(hit), want.bits());
+        // SAFETY: as above.
+        assert_eq!(
+            unsafe { kdray_scene_any_hit(&h, &ray, mask, &mut occluded) },
+            KdrayStatus::Ok
+        );
+        assert_eq!(occluded, i32::from(mask != 0));
+    }
+    assert_eq!(hit.inst_id, KDRAY_MISS);
+    // SAFETY: as above.
+    unsafe { kdray_scene_closest_hit(&h, &ray, 1, &mut hit) };
+    assert_eq!(hit.inst_id, 1);
+    // A scene handle is not a tree handle.
+    let tree: *const KdrayTriangleTree = (&h as *const KdrayScene).cast();
+    let mut th = KdrayHit::zeroed();
+    // SAFETY: a readable handle-sized struct.
+    assert_eq!(
+        unsafe { kdray_closest_hit(tree, &ray, &mut th) },
+        KdrayStatus::NotOpen
+    );
+}

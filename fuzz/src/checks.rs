@@ -7,6 +7,9 @@
 //! - [`packet_vs_single`]: a small scene, coordinates mostly on a coarse
 //!   grid (hits on edges, vertices and split planes) plus raw floats;
 //!   packets of hostile rays with inactive lanes: lanes == single rays.
+//! - [`scene_blob`]: a valid scene blob with bytes overwritten (checksum
+//!   resealed or not), or arbitrary bytes: an error or a scene whose
+//!   answers are its brute force's.
 //! - [`tree_vs_brute`]: the same scenes with every builder: the tree's
 //!   closest hit is the brute-force one bit for bit, any hit agrees.
 
@@ -300,5 +303,87 @@ pub fn tree_vs_brute(data: &[u8]) {
             assert_eq!(got.bits(), want.bits(), "{kind:?}: {ray:?} {tris:?}");
             assert_eq!(tree.any_hit(&ray), want_any, "{kind:?} any: {ray:?}");
         }
+    }
+}
+
+/// A small valid scene blob: two meshes, a dozen instances with
+/// rotations, scales and a mirror (built once per process).
+fn scene_seed() -> &'static [u8] {
+    use kdray::kernel::Instance;
+    use kdray::tools::instances::{build_scene, placement, sphere, torus};
+    static SEED: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
+    SEED.get_or_init(|| {
+        let meshes = vec![sphere(4, 6), torus(6, 4)];
+        let instances = (0..12)
+            .filter_map(|k| {
+                let s = if k % 5 == 0 {
+                    -1.0
+                } else {
+                    1.0 + k as f32 * 0.1
+                };
+                let m = placement(
+                    [1.0, k as f32, 0.5],
+                    k as f32,
+                    [s, 1.0, 0.7],
+                    [k as f32, 0.0, -(k as f32)],
+                );
+                Instance::new(k % 2, m, k, 1 << (k % 3))
+            })
+            .collect();
+        build_scene(
+            &meshes,
+            instances,
+            BuilderKind::default(),
+            &BuildParams::default(),
+        )
+        .and_then(|p| {
+            p.write()
+                .map_err(kdray::tools::instances::SceneBuildError::Write)
+        })
+        .map(|b| b.as_bytes().to_vec())
+        .unwrap_or_default()
+    })
+}
+
+/// Scene blob loading and tracing never panic, and a scene that loads
+/// answers as its brute force: a valid scene blob with bytes overwritten
+/// where the input says (the checksum resealed when its first byte is
+/// odd, so the structural checks behind it are reached), or arbitrary bytes.
+pub fn scene_blob(data: &[u8]) {
+    use kdray::kernel::Scene;
+    let mut r = Bytes::new(data);
+    let mode = r.u8();
+    let mut bytes = if mode & 2 == 0 {
+        scene_seed().to_vec()
+    } else {
+        r.rest().to_vec()
+    };
+    if mode & 2 == 0 && !bytes.is_empty() {
+        for _ in 0..(r.u8() % 8) {
+            let at = r.u32() as usize % bytes.len();
+            bytes[at] = r.u8();
+        }
+        if mode & 1 == 1 {
+            let sum = blob_checksum(&bytes);
+            bytes[36..40].copy_from_slice(&sum.to_le_bytes());
+        }
+    }
+    let blob = Blob::from_bytes(&bytes);
+    let Ok(scene) = Scene::from_bytes(blob.as_bytes()) else {
+        return;
+    };
+    for _ in 0..8 {
+        let ray = r.ray();
+        let mask = r.u32() | 1;
+        assert_eq!(
+            scene.closest_hit(&ray, mask).bits(),
+            scene.closest_hit_brute(&ray, mask).bits(),
+            "{ray:?}"
+        );
+        assert_eq!(
+            scene.any_hit(&ray, mask),
+            scene.any_hit_brute(&ray, mask),
+            "{ray:?}"
+        );
     }
 }

@@ -10,6 +10,10 @@
 //!   [`MAX_DEPTH`] entries; [`TriangleTree::closest_hit8`] and friends
 //!   ([`Packet8`] and friends) trace 4, 8 or 16 rays at once with the same
 //!   answers.
+//! - [`Scene::from_bytes`] (a scene blob) or [`Scene::from_parts`] (mesh
+//!   trees the engine holds, an [`Instance`] table and a top-level tree)
+//!   gives a scene of instanced meshes; [`Scene::closest_hit`] and
+//!   [`Scene::any_hit`] answer as [`Scene::closest_hit_brute`] does.
 //! - [`PointTreeN::from_bytes`] does the same for a point tree over
 //!   D-dimensional `f32` or `f64` points ([`PointTree`]: 3-D `f32`), which
 //!   answers [`PointTreeN::nearest`], [`PointTreeN::knn`] and
@@ -91,11 +95,12 @@
 
 // The layers, each importing only from those above it in this list
 // (docs/architecture.md): geometry -> lanes -> triangle -> blob ->
-// triangle_tree, points.
+// triangle_tree, points -> scene.
 mod blob;
 mod geometry;
 mod lanes;
 mod points;
+mod scene;
 #[cfg(test)]
 mod test_rng;
 mod triangle;
@@ -109,6 +114,10 @@ pub use glam;
 pub use points::{
     distance2, knn_brute, nearest_brute, within_brute, BufferTooSmall, Neighbour, PointNode,
     PointNodeKind, PointShape, PointTree, PointTreeN, Scalar, MAX_POINT_FIELD,
+};
+pub use scene::{
+    inverse_affine, Instance, MeshEntry, Scene, SceneError, SceneHit, IDENTITY, KIND_SCENE,
+    MESH_ALIGN,
 };
 pub use triangle::{any_hit_brute, closest_hit_brute, SurfacePoint, Triangle, MAX_COORD};
 pub use triangle_tree::packet::{Packet, Packet16, Packet4, Packet8, PacketWidth};

@@ -2,7 +2,9 @@
 
 use crate::builders::BuiltTree;
 use crate::points::BuiltPoints;
-use kdray_kernel::{BlobError, PointTreeN, Scalar, Triangle, TriangleTree, WriteError};
+use kdray_kernel::{
+    BlobError, PointTreeN, Scalar, Scene, SceneError, Triangle, TriangleTree, WriteError,
+};
 use std::path::Path;
 
 /// Blob bytes held in `u64` words, so they are always 8-byte aligned and
@@ -68,6 +70,14 @@ impl Blob {
     /// The kernel's [`BlobError`].
     pub fn tree(&self) -> Result<TriangleTree<'_>, BlobError> {
         TriangleTree::from_bytes(self.as_bytes())
+    }
+
+    /// The validated scene view ([`Scene::from_bytes`]).
+    ///
+    /// # Errors
+    /// The kernel's [`SceneError`].
+    pub fn scene(&self) -> Result<Scene<'_>, SceneError> {
+        Scene::from_bytes(self.as_bytes())
     }
 
     /// The validated point tree view ([`PointTreeN::from_bytes`]), of the

@@ -309,6 +309,7 @@ fn kind_name(kind: u32) -> &'static str {
         1 => "triangles",
         2 => "3-D points of an older layout: rebuild it",
         3 => "points",
+        4 => "scene",
         _ => "unknown",
     }
 }

@@ -3,7 +3,7 @@
 //! builder's vectors; and the walks over it (single rays in `walk`, packets
 //! in `packet`).
 
-mod cell_ray;
+pub(crate) mod cell_ray;
 mod counts;
 mod leaf_lanes;
 pub(crate) mod packet;

@@ -4,8 +4,10 @@ use super::json::JsonObject;
 use super::progress::with_bar;
 use super::report::{print_stats, stats_json};
 use super::{check_threads, CmdResult, MeshArgs};
+use kdray_kernel::Instance;
 use kdray_tools::blob::write_triangle_tree;
 use kdray_tools::builders::{build_monitored, BuildMonitor, BuildParams, BuilderKind};
+use kdray_tools::instances::build_scene;
 use kdray_tools::io;
 use kdray_tools::stats::{tree_stats, CostModel};
 use std::path::PathBuf;
@@ -40,6 +42,11 @@ pub(crate) struct Args {
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     json: bool,
+    /// Keep a glTF's mesh references as instances: write a scene blob (a
+    /// tree per mesh, an instance per node with a mesh, a top-level tree)
+    /// instead of flattening every node's mesh into one tree.
+    #[arg(long)]
+    instances: bool,
     #[command(flatten)]
     mesh_args: MeshArgs,
 }
@@ -72,6 +79,9 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             params.empty_bonus
         )
         .into());
+    }
+    if a.instances {
+        return build_instanced(a, kind, &params);
     }
     let t = Instant::now();
     let tris = a.mesh_args.load(&a.mesh)?;
@@ -111,6 +121,60 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             kind.name()
         );
         print_stats(&stats);
+    }
+    Ok(())
+}
+
+/// `kdray build --instances`: a scene blob from a glTF file.
+fn build_instanced(a: &Args, kind: BuilderKind, params: &BuildParams) -> CmdResult {
+    let t = Instant::now();
+    let g = a.mesh_args.load_instanced(&a.mesh)?;
+    let load_ms = t.elapsed().as_secs_f64() * 1e3;
+    let t = Instant::now();
+    let mut instances = Vec::with_capacity(g.instances.len());
+    for &(mesh, m, node) in &g.instances {
+        let inst = Instance::new(mesh, m, node, u32::MAX).ok_or_else(|| {
+            format!(
+                "{}: node {node}: its transform is singular or not finite",
+                a.mesh.display()
+            )
+        })?;
+        instances.push(inst);
+    }
+    let parts = build_scene(&g.meshes, instances, kind, params)
+        .map_err(|e| format!("{}: {e}", a.mesh.display()))?;
+    let build_ms = t.elapsed().as_secs_f64() * 1e3;
+    let blob = parts.write()?;
+    blob.scene()
+        .map_err(|e| format!("internal error: the built scene does not validate: {e}"))?;
+    io::write_bytes(&a.output, blob.as_bytes())?;
+    let tris: usize = g.meshes.iter().map(Vec::len).sum();
+    if a.json {
+        let j = JsonObject::default()
+            .str("mesh", &a.mesh.display().to_string())
+            .str("output", &a.output.display().to_string())
+            .str("kind", "scene")
+            .num("load_ms", load_ms)
+            .num("build_ms", build_ms)
+            .num("meshes", g.meshes.len() as f64)
+            .num("mesh_triangles", tris as f64)
+            .num("instances", parts.instances.len() as f64)
+            .num("bytes", blob.as_bytes().len() as f64);
+        say!("{}", j.finish());
+    } else {
+        say!(
+            "built {} -> {} (scene)",
+            a.mesh.display(),
+            a.output.display()
+        );
+        say!("  load               {load_ms:.1} ms");
+        say!(
+            "  build              {build_ms:.1} ms ({} builder per mesh)",
+            kind.name()
+        );
+        say!("  meshes             {} ({tris} triangles)", g.meshes.len());
+        say!("  instances          {}", parts.instances.len());
+        say!("  bytes              {}", blob.as_bytes().len());
     }
     Ok(())
 }

@@ -5,6 +5,7 @@ use super::report::{print_stats, stats_json};
 use super::CmdResult;
 use kdray_tools::blob::Blob;
 use kdray_tools::builders::BuildParams;
+use kdray_tools::instances::is_scene_blob;
 use kdray_tools::stats::{tree_stats, CostModel};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -25,6 +26,55 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         Err(e) => return fail(a, format!("{}: {e}", a.tree.display())),
     };
     let t = Instant::now();
+    if is_scene_blob(blob.as_bytes()) {
+        let scene = match blob.scene() {
+            Ok(s) => s,
+            Err(e) => return fail(a, format!("{}: invalid scene blob: {e}", a.tree.display())),
+        };
+        let validate_ms = t.elapsed().as_secs_f64() * 1e3;
+        let mesh_tris: Vec<usize> = (0..scene.mesh_count())
+            .map(|m| scene.mesh(m).map_or(0, |t| t.triangles().len()))
+            .collect();
+        let flat: usize = scene
+            .instances()
+            .iter()
+            .map(|i| mesh_tris.get(i.mesh() as usize).copied().unwrap_or(0))
+            .sum();
+        if a.json {
+            let j = JsonObject::default()
+                .str("tree", &a.tree.display().to_string())
+                .bool("valid", true)
+                .str("kind", "scene")
+                .num("validate_ms", validate_ms)
+                .num("bytes", blob.as_bytes().len() as f64)
+                .num("instances", scene.instances().len() as f64)
+                .num("meshes", f64::from(scene.mesh_count()))
+                .num("mesh_triangles", mesh_tris.iter().sum::<usize>() as f64)
+                .num("flattened_triangles", flat as f64)
+                .num("top_level_nodes", scene.nodes().len() as f64)
+                .num("top_level_depth", f64::from(scene.max_depth()));
+            say!("{}", j.finish());
+        } else {
+            say!(
+                "{}: valid kdray scene (validated in {validate_ms:.1} ms)",
+                a.tree.display()
+            );
+            say!("  bytes              {}", blob.as_bytes().len());
+            say!("  instances          {}", scene.instances().len());
+            say!(
+                "  meshes             {} ({} triangles)",
+                scene.mesh_count(),
+                mesh_tris.iter().sum::<usize>()
+            );
+            say!("  flattened          {flat} triangles");
+            say!(
+                "  top level          {} nodes, depth {}",
+                scene.nodes().len(),
+                scene.max_depth()
+            );
+        }
+        return Ok(());
+    }
     let tree = match blob.tree() {
         Ok(t) => t,
         Err(e) => return fail(a, format!("{}: invalid tree blob: {e}", a.tree.display())),

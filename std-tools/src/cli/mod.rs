@@ -13,6 +13,7 @@ mod bench;
 mod build_points;
 mod build_tree;
 mod demo;
+mod export_obj;
 mod info;
 mod json;
 mod knn;
@@ -61,6 +62,9 @@ enum Command {
     Demo(demo::Args),
     /// Compare the builders: build time, tree quality and trace speed.
     Bench(bench::Args),
+    /// Write a mesh's triangles, flattened (a glTF's nodes with their
+    /// transforms, in `kdray build`'s order), as OBJ.
+    ExportObj(export_obj::Args),
 }
 
 /// What a subcommand returns: an error message for the user, already
@@ -82,6 +86,7 @@ pub(crate) fn main() -> ExitCode {
         Some(Command::Render(a)) => render::run(&a),
         Some(Command::Demo(a)) => demo::run(&a),
         Some(Command::Bench(a)) => bench::run(&a),
+        Some(Command::ExportObj(a)) => export_obj::run(&a),
         None => demo::run(&demo::Args::default()),
     };
     match result {
@@ -171,5 +176,39 @@ impl MeshArgs {
             eprintln!("kdray: warning: {}: {s}", path.display());
         }
         Ok(m.triangles)
+    }
+
+    /// Loads a glTF file with its mesh references kept, printing what was
+    /// skipped as warnings.
+    fn load_instanced(
+        self,
+        path: &std::path::Path,
+    ) -> Result<kdray_tools::mesh::InstancedGltf, Box<dyn std::error::Error>> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        if !matches!(ext.as_deref(), Some("gltf" | "glb")) {
+            return Err(format!(
+                "{}: --instances reads glTF files (.gltf, .glb), whose nodes reference meshes",
+                path.display()
+            )
+            .into());
+        }
+        let options = kdray_tools::mesh::LoadOptions {
+            allow_outside_uris: self.allow_outside_uris,
+        };
+        let mut skipped = Vec::new();
+        let g = kdray_tools::mesh::load_gltf_instanced(path, &options, &mut skipped)?;
+        for s in &skipped {
+            eprintln!("kdray: warning: {}: {s}", path.display());
+        }
+        for (i, m) in g.meshes.iter().enumerate() {
+            kdray_tools::mesh::check_finite(path, m).map_err(|e| format!("mesh {i}: {e}"))?;
+        }
+        if g.instances.is_empty() {
+            return Err(format!("{}: the scene has no triangles", path.display()).into());
+        }
+        Ok(g)
     }
 }

@@ -33,6 +33,80 @@ pub(super) fn read(
     options: &LoadOptions,
     skipped: &mut Vec<String>,
 ) -> Result<Vec<Triangle>, MeshError> {
+    let mut tris = Vec::new();
+    walk(path, options, skipped, |_, mesh, m, buffers, skipped| {
+        add_mesh(path, mesh, buffers, m, skipped, &mut tris)
+    })?;
+    Ok(tris)
+}
+
+/// A glTF file with its mesh references kept: each mesh's triangles once,
+/// in its own space, and one instance per node that has a mesh, in the
+/// depth-first node order [`load_gltf`] flattens them in, so triangle `p` of
+/// instance `i` is triangle `(triangles of instances before i) + p` of
+/// [`load_gltf`]. Meshes are numbered by first use; meshes without
+/// triangles are left out (they add none to the flattened order).
+#[derive(Clone, Debug, Default)]
+pub struct InstancedGltf {
+    /// Each mesh's triangles, in mesh space.
+    pub meshes: Vec<Vec<Triangle>>,
+    /// Per instance: its mesh, its node's world transform (3×4 row-major)
+    /// and the node's index (the instance's user id).
+    pub instances: Vec<(u32, [f32; 12], u32)>,
+}
+
+/// Loads a glTF file keeping mesh references as instances ([`InstancedGltf`]).
+///
+/// # Errors
+/// As [`load_gltf`].
+pub fn load_gltf_instanced(
+    path: &Path,
+    options: &LoadOptions,
+    skipped: &mut Vec<String>,
+) -> Result<InstancedGltf, MeshError> {
+    let mut out = InstancedGltf::default();
+    let mut index: Vec<Option<Option<u32>>> = Vec::new();
+    walk(path, options, skipped, |node, mesh, m, buffers, skipped| {
+        if index.len() <= mesh.index() {
+            index.resize(mesh.index() + 1, None);
+        }
+        let slot = match index[mesh.index()] {
+            Some(slot) => slot,
+            None => {
+                let mut tris = Vec::new();
+                add_mesh(path, mesh, buffers, Mat4::IDENTITY, skipped, &mut tris)?;
+                let slot = (!tris.is_empty()).then(|| {
+                    out.meshes.push(tris);
+                    out.meshes.len() as u32 - 1
+                });
+                index[mesh.index()] = Some(slot);
+                slot
+            }
+        };
+        if let Some(slot) = slot {
+            let rows: [f32; 12] = core::array::from_fn(|k| m.row(k / 4)[k % 4]);
+            out.instances.push((slot, rows, node as u32));
+        }
+        Ok(())
+    })?;
+    Ok(out)
+}
+
+/// The default scene's nodes (else the first scene's), depth-first,
+/// parents before children, in file order: `on_mesh(node, mesh, world
+/// transform, buffers, skipped)` for each node that has a mesh.
+fn walk(
+    path: &Path,
+    options: &LoadOptions,
+    skipped: &mut Vec<String>,
+    mut on_mesh: impl FnMut(
+        usize,
+        &gltf::Mesh<'_>,
+        Mat4,
+        &[Vec<u8>],
+        &mut Vec<String>,
+    ) -> Result<(), MeshError>,
+) -> Result<(), MeshError> {
     let err = |msg: String| MeshError::new(path, None, msg);
     let bytes = std::fs::read(path).map_err(|e| err(format!("cannot open: {e}")))?;
     let g = gltf::Gltf::from_slice(&bytes).map_err(|e| err(format!("malformed glTF: {e}")))?;
@@ -47,8 +121,6 @@ pub(super) fn read(
         .or_else(|| g.document.scenes().next())
         .ok_or_else(|| err("no scene to load".into()))?;
     let mut seen = vec![false; g.document.nodes().len()];
-    let mut tris = Vec::new();
-    // Depth-first, parents before children, in file order.
     let mut stack: Vec<(gltf::Node<'_>, Mat4)> = Vec::new();
     push_reversed(&mut stack, scene.nodes(), Mat4::IDENTITY);
     while let Some((node, parent)) = stack.pop() {
@@ -62,23 +134,37 @@ pub(super) fn read(
         *seen = true;
         let m = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         if let Some(mesh) = node.mesh() {
-            for prim in mesh.primitives() {
-                let at = format!("mesh {} primitive {}", mesh.index(), prim.index());
-                if let Some(kind) = not_triangles(prim.mode()) {
-                    let n = prim
-                        .get(&gltf::Semantic::Positions)
-                        .map_or(0, |a| a.count());
-                    skipped.push(format!(
-                        "{at}: a {kind} primitive ({n} vertices) skipped: only triangles are traced"
-                    ));
-                    continue;
-                }
-                add_primitive(path, &at, &prim, &buffers, m, &mut tris)?;
-            }
+            on_mesh(node.index(), &mesh, m, &buffers, skipped)?;
         }
         push_reversed(&mut stack, node.children(), m);
     }
-    Ok(tris)
+    Ok(())
+}
+
+/// Appends the triangles of every triangle primitive of `mesh` under `m`,
+/// reporting the others in `skipped`.
+fn add_mesh(
+    path: &Path,
+    mesh: &gltf::Mesh<'_>,
+    buffers: &[Vec<u8>],
+    m: Mat4,
+    skipped: &mut Vec<String>,
+    tris: &mut Vec<Triangle>,
+) -> Result<(), MeshError> {
+    for prim in mesh.primitives() {
+        let at = format!("mesh {} primitive {}", mesh.index(), prim.index());
+        if let Some(kind) = not_triangles(prim.mode()) {
+            let n = prim
+                .get(&gltf::Semantic::Positions)
+                .map_or(0, |a| a.count());
+            skipped.push(format!(
+                "{at}: a {kind} primitive ({n} vertices) skipped: only triangles are traced"
+            ));
+            continue;
+        }
+        add_primitive(path, &at, &prim, buffers, m, tris)?;
+    }
+    Ok(())
 }
 
 /// Pushes `nodes` under transform `m` so that the first pops first.

@@ -11,8 +11,8 @@ use kdray_kernel::Triangle;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-pub use gltf::load_gltf;
-pub use obj::load_obj;
+pub use gltf::{load_gltf, load_gltf_instanced, InstancedGltf};
+pub use obj::{load_obj, obj_text};
 pub use ply::load_ply;
 
 /// A mesh that could not be loaded: the file, the line when known, and why.

@@ -136,3 +136,22 @@ pub fn load_obj(path: &Path) -> Result<Vec<Triangle>, MeshError> {
     }
     Ok(tris)
 }
+
+/// `tris` as OBJ text: three vertices per triangle, face `i` is triangle
+/// `i`; `{:?}` prints the shortest decimal that reads back as the same
+/// `f32`, so [`load_obj`] gives back the same triangles.
+#[must_use]
+pub fn obj_text(tris: &[Triangle]) -> Vec<u8> {
+    use std::fmt::Write as _;
+    let mut text = String::with_capacity(tris.len() * 100);
+    let _ = writeln!(text, "# {} triangles", tris.len());
+    for t in tris {
+        for p in &t.v {
+            let _ = writeln!(text, "v {:?} {:?} {:?}", p[0], p[1], p[2]);
+        }
+    }
+    for i in 0..tris.len() {
+        let _ = writeln!(text, "f {} {} {}", 3 * i + 1, 3 * i + 2, 3 * i + 3);
+    }
+    text.into_bytes()
+}

@@ -1,0 +1,38 @@
+//! The scene's oracles: every instance the mask selects, each tested by
+//! brute force over its mesh's triangles with the ray in its space by the
+//! same arithmetic ([`Instance::local_ray`](super::Instance::local_ray)).
+
+use super::{Scene, SceneHit};
+use crate::geometry::{ray_is_valid, Ray};
+use crate::triangle::{any_hit_brute, closest_hit_brute};
+
+impl Scene<'_> {
+    /// The brute-force closest hit: every selected instance, every
+    /// triangle; smallest `t`, then lower instance, then lower triangle.
+    /// What [`Scene::closest_hit`] is held to.
+    #[must_use]
+    pub fn closest_hit_brute(&self, ray: &Ray, mask: u32) -> SceneHit {
+        let mut best = SceneHit::MISS;
+        if !ray_is_valid(ray) {
+            return best;
+        }
+        for i in 0..self.instances.len() as u32 {
+            if let Some((inst, mesh)) = self.selected(i, mask) {
+                best.keep(closest_hit_brute(mesh.triangles(), &inst.local_ray(ray)), i);
+            }
+        }
+        best
+    }
+
+    /// The brute-force any hit: does any triangle of any selected instance
+    /// hit `ray` in `[tmin, tmax]`?
+    #[must_use]
+    pub fn any_hit_brute(&self, ray: &Ray, mask: u32) -> bool {
+        ray_is_valid(ray)
+            && (0..self.instances.len() as u32).any(|i| {
+                self.selected(i, mask).is_some_and(|(inst, mesh)| {
+                    any_hit_brute(mesh.triangles(), &inst.local_ray(ray))
+                })
+            })
+    }
+}

@@ -1,0 +1,310 @@
+//! The top-level walk: the lecture's loop over the instance tree, with the
+//! mesh walk's slack rule (`triangle_tree::cell_ray`): a cell is skipped
+//! only when the ray's interval misses it by more than the slack, and a
+//! far cell popped after a hit only when it starts more than the slack
+//! beyond it. In a leaf, each instance the ray's mask selects is traced in
+//! its own space by its mesh tree, over `[tmin, best t]`.
+
+use super::Scene;
+use crate::blob::{Node, MAX_DEPTH};
+use crate::geometry::{Hit, Ray, MISS};
+use crate::lanes::Span;
+use crate::triangle::ShearedRay;
+use crate::triangle_tree::cell_ray::CellRay;
+use crate::triangle_tree::packet::Packet;
+use bytemuck::{Pod, Zeroable};
+
+/// A scene's closest hit: `repr(C)`, Pod, 20 bytes. `instance` and `prim`
+/// are [`MISS`] for a miss; `t`, `u`, `v` as in [`Hit`] (`u`, `v` the
+/// barycentric weights of the mesh triangle's vertices 1 and 2).
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+#[repr(C)]
+pub struct SceneHit {
+    /// Ray parameter of the hit (the same in world and instance space);
+    /// `+inf` for a miss.
+    pub t: f32,
+    /// The triangle's index in its mesh.
+    pub prim: u32,
+    /// Barycentric weight of vertex 1.
+    pub u: f32,
+    /// Barycentric weight of vertex 2.
+    pub v: f32,
+    /// The instance's index in the scene.
+    pub instance: u32,
+}
+
+impl SceneHit {
+    /// The miss record.
+    pub const MISS: SceneHit = SceneHit {
+        t: f32::INFINITY,
+        prim: MISS,
+        u: 0.0,
+        v: 0.0,
+        instance: MISS,
+    };
+
+    /// Did the ray hit?
+    #[inline]
+    #[must_use]
+    pub const fn is_hit(&self) -> bool {
+        self.instance != MISS
+    }
+
+    /// The mesh-level hit record (`prim` the triangle in its mesh).
+    #[inline]
+    #[must_use]
+    pub fn hit(&self) -> Hit {
+        Hit {
+            t: self.t,
+            prim: self.prim,
+            u: self.u,
+            v: self.v,
+        }
+    }
+
+    /// Bitwise equality, as the exactness tests compare.
+    #[inline]
+    #[must_use]
+    pub fn bits(&self) -> [u32; 5] {
+        bytemuck::cast(*self)
+    }
+
+    /// Keeps `h`, the hit of instance `instance` found over `[tmin, self.t]`,
+    /// if it wins: smaller `t`, or equal `t` and a lower instance (the
+    /// mesh tree already chose the lower triangle).
+    #[inline(always)]
+    pub(crate) fn keep(&mut self, h: Hit, instance: u32) {
+        if h.is_hit() && (h.t < self.t || (h.t == self.t && instance < self.instance)) {
+            *self = SceneHit {
+                t: h.t,
+                prim: h.prim,
+                u: h.u,
+                v: h.v,
+                instance,
+            };
+        }
+    }
+}
+
+/// A far cell waiting on the stack with its interval (widened by the slack).
+#[derive(Clone, Copy, Debug, Default)]
+struct Pending {
+    node: u32,
+    lo: f32,
+    hi: f32,
+}
+
+/// What the walk does with a leaf's instances.
+trait Visit {
+    /// The end of the ray's current interval.
+    fn bound(&self) -> f32;
+    /// Traces instance `i`; `true` when the answer is known.
+    fn instance(&mut self, scene: &Scene<'_>, i: u32) -> bool;
+}
+
+struct ClosestVisit<'r> {
+    ray: &'r Ray,
+    mask: u32,
+    best: SceneHit,
+}
+
+impl Visit for ClosestVisit<'_> {
+    #[inline(always)]
+    fn bound(&self) -> f32 {
+        self.best.t.min(self.ray.tmax)
+    }
+
+    #[inline(always)]
+    fn instance(&mut self, scene: &Scene<'_>, i: u32) -> bool {
+        // The best instance met again (it lies in several leaves) cannot win.
+        if i == self.best.instance {
+            return false;
+        }
+        let Some((inst, mesh)) = scene.selected(i, self.mask) else {
+            return false;
+        };
+        let mut local = inst.local_ray(self.ray);
+        local.tmax = self.bound();
+        self.best.keep(mesh.closest_hit(&local), i);
+        false
+    }
+}
+
+struct AnyVisit<'r> {
+    ray: &'r Ray,
+    mask: u32,
+}
+
+impl Visit for AnyVisit<'_> {
+    #[inline(always)]
+    fn bound(&self) -> f32 {
+        self.ray.tmax
+    }
+
+    #[inline(always)]
+    fn instance(&mut self, scene: &Scene<'_>, i: u32) -> bool {
+        scene
+            .selected(i, self.mask)
+            .is_some_and(|(inst, mesh)| mesh.any_hit(&inst.local_ray(self.ray)))
+    }
+}
+
+impl<'a> Scene<'a> {
+    /// Instance `i` and its mesh, when `mask` selects it.
+    #[inline(always)]
+    pub(crate) fn selected(
+        &self,
+        i: u32,
+        mask: u32,
+    ) -> Option<(&'a super::Instance, crate::triangle_tree::TriangleTree<'a>)> {
+        let inst = self.instances.get(i as usize)?;
+        if inst.mask() & mask == 0 {
+            return None;
+        }
+        Some((inst, self.mesh(inst.mesh())?))
+    }
+
+    /// The closest hit of `ray` among the instances `mask` selects
+    /// (`instance mask & mask != 0`): the smallest `t`, then the lower
+    /// instance, then the lower triangle, bit for bit
+    /// [`Scene::closest_hit_brute`]. [`SceneHit::MISS`] for a miss or an
+    /// invalid ray.
+    ///
+    /// # Panics
+    /// Never. No allocation; the stack is [`MAX_DEPTH`] entries here and
+    /// one mesh walk's below.
+    #[must_use]
+    pub fn closest_hit(&self, ray: &Ray, mask: u32) -> SceneHit {
+        let mut visit = ClosestVisit {
+            ray,
+            mask,
+            best: SceneHit::MISS,
+        };
+        self.walk(ray, &mut visit);
+        visit.best
+    }
+
+    /// Does any instance `mask` selects hit `ray` in `[tmin, tmax]`?
+    /// Exactly when [`Scene::any_hit_brute`] says so.
+    ///
+    /// # Panics
+    /// Never.
+    #[must_use]
+    pub fn any_hit(&self, ray: &Ray, mask: u32) -> bool {
+        self.walk(ray, &mut AnyVisit { ray, mask })
+    }
+
+    /// [`Scene::closest_hit`] for each active lane of a packet of 4, 8 or
+    /// 16 rays (inactive lanes miss): each lane bit for bit its single ray.
+    #[must_use]
+    pub fn closest_hit_packet<const N: usize>(
+        &self,
+        packet: &Packet<N>,
+        mask: u32,
+    ) -> [SceneHit; N] {
+        core::array::from_fn(|l| match packet.valid.get(l) {
+            Some(true) => self.closest_hit(&packet.ray(l), mask),
+            _ => SceneHit::MISS,
+        })
+    }
+
+    /// [`Scene::any_hit`] for each active lane of a packet (inactive lanes: `false`).
+    #[must_use]
+    pub fn any_hit_packet<const N: usize>(&self, packet: &Packet<N>, mask: u32) -> [bool; N] {
+        core::array::from_fn(|l| {
+            packet.valid.get(l) == Some(&true) && self.any_hit(&packet.ray(l), mask)
+        })
+    }
+
+    /// The traversal loop: `visit` sees each non-empty leaf's instances in
+    /// front-to-back order of cells. `true` when `visit` stopped it.
+    fn walk<V: Visit>(&self, ray: &Ray, visit: &mut V) -> bool {
+        let Some(sr) = ShearedRay::new(ray) else {
+            return false;
+        };
+        let Some(cr) = CellRay::new(ray, &sr, &self.bounds) else {
+            return false;
+        };
+        let s2 = cr.slack + cr.slack;
+        let mut stack = [Pending::default(); MAX_DEPTH as usize];
+        let mut sp = 0usize;
+        let (mut lo, mut hi) = cr.start();
+        let Some(&(mut node)) = self.nodes.first() else {
+            return false;
+        };
+        loop {
+            let axis = node.axis_bits();
+            if let (Some(&o), Some(&inv)) = (cr.org.get(axis), cr.inv.get(axis)) {
+                // Compute parametric distance along ray to split plane.
+                let t_split = (node.split() - o) * inv;
+                let first = node.first_child(cr.above_first_nibbles);
+                let second = node.other_child(first);
+                let (Some(&near), Some(&far)) = (self.nodes.get(first), self.nodes.get(second))
+                else {
+                    return false; // only an unchecked, invalid tree
+                };
+                // "Not outside", so a NaN t_split visits both (walk.rs).
+                #[allow(clippy::neg_cmp_op_on_partial_ord)]
+                let (visit_near, visit_far) = (!(t_split < lo), !(t_split > hi));
+                let far_lo = lo.far_lo(t_split, s2);
+                if visit_near {
+                    if visit_far && !far.is_empty_leaf() {
+                        // Advance to the near child, enqueue the far one.
+                        let Some(slot) = stack.get_mut(sp) else {
+                            return false;
+                        };
+                        *slot = Pending {
+                            node: second as u32,
+                            lo: far_lo,
+                            hi,
+                        };
+                        sp += 1;
+                    }
+                    node = near;
+                    hi = hi.near_hi(t_split, s2);
+                } else {
+                    node = far;
+                    lo = far_lo;
+                }
+                continue;
+            }
+            if visit_leaf(self, node, visit) {
+                return true;
+            }
+            let cutoff = visit.bound().cutoff(s2);
+            // Advance to the next far cell that can still hold a better hit.
+            loop {
+                let Some(next) = sp.checked_sub(1) else {
+                    return false;
+                };
+                sp = next;
+                let Some(p) = stack.get(sp) else {
+                    return false;
+                };
+                if p.lo <= cutoff {
+                    let Some(&n) = self.nodes.get(p.node as usize) else {
+                        return false;
+                    };
+                    (node, lo, hi) = (n, p.lo, Span::min(p.hi, cutoff));
+                    break;
+                }
+            }
+        }
+    }
+}
+
+/// Visits the instances of leaf `node`: its one instance or its run of
+/// the instance-index array.
+#[inline(always)]
+fn visit_leaf<V: Visit>(scene: &Scene<'_>, node: Node, visit: &mut V) -> bool {
+    let count = node.upper();
+    if count == 1 {
+        return visit.instance(scene, node.word0());
+    }
+    let start = node.word0() as usize;
+    let run = scene
+        .prims
+        .get(start..start.saturating_add(count as usize))
+        .unwrap_or(&[]);
+    run.iter().any(|&i| visit.instance(scene, i))
+}

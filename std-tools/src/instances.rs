@@ -1,0 +1,649 @@
+//! Scenes on the host: the top-level tree over instance world boxes (SAH
+//! with binning), the scene blob writer, the flattened scene (every
+//! instance's triangles in world space, in instance order) and a
+//! generated level.
+//!
+//! An engine updates a scene per frame without touching static meshes:
+//! moved instances get new transforms ([`Instance::new`]), the world boxes
+//! are recomputed from each mesh's bounds ([`world_boxes`]), and only the
+//! top level is rebuilt ([`build_top_level`]); mesh trees are shared and
+//! kept. A deforming mesh rebuilds its own tree.
+
+use crate::blob::{write_triangle_tree, Blob};
+use crate::builders::{self, BuildError, BuildParams, BuilderKind, BuiltTree, CostModel};
+use crate::rng::Rng;
+use kdray_kernel::wire::{
+    blob_checksum, Header, CHECKSUM_OFFSET, ENDIAN_CHECK, HEADER_LEN, MAGIC, VERSION,
+};
+use kdray_kernel::{
+    Axis, Bounds, Hit, Instance, Node, Ray, Scene, Triangle, TriangleTree, WriteError, KIND_SCENE,
+    MAX_DEPTH, MESH_ALIGN,
+};
+
+/// The top-level builder's parameters ([`TopParams::DEFAULT`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TopParams {
+    /// The SAH's constants: a traversal step against tracing one instance.
+    pub cost: CostModel,
+    /// Equal-width bins per axis the SAH is evaluated at (at most 64).
+    pub bins: usize,
+    /// Cells of at most this many instances become leaves.
+    pub leaf_size: usize,
+    /// Depth limit: `extra_depth + log2(n)`, at most `MAX_DEPTH`.
+    pub extra_depth: u32,
+}
+
+impl TopParams {
+    /// Tracing an instance (a mesh walk of some tens of steps) costs a few
+    /// traversal steps; 16 bins; leaves of up to 2 instances.
+    pub const DEFAULT: TopParams = TopParams {
+        cost: CostModel {
+            traversal: 1.0,
+            intersection: 4.0,
+            empty_factor: 0.8,
+        },
+        bins: 16,
+        leaf_size: 2,
+        extra_depth: 6,
+    };
+}
+
+/// Each mesh's bounds as its tree's root cell (the default builder's).
+///
+/// # Errors
+/// [`BuildError`] for a mesh the builder refuses.
+pub fn mesh_bounds(meshes: &[Vec<Triangle>]) -> Result<Vec<Bounds>, BuildError> {
+    meshes
+        .iter()
+        .map(|m| {
+            builders::build(m, BuilderKind::default(), &BuildParams::default()).map(|t| t.bounds)
+        })
+        .collect()
+}
+
+/// The world box of each instance, from its mesh's bounds.
+#[must_use]
+pub fn world_boxes(mesh_bounds: &[Bounds], instances: &[Instance]) -> Vec<Bounds> {
+    instances
+        .iter()
+        .map(|i| {
+            mesh_bounds
+                .get(i.mesh() as usize)
+                .map_or(Bounds::EMPTY, |b| i.world_bounds(b))
+        })
+        .collect()
+}
+
+/// The top-level tree over instance world boxes with [`TopParams::DEFAULT`]
+/// ([`build_top_level_with`]).
+#[must_use]
+pub fn build_top_level(boxes: &[Bounds]) -> BuiltTree {
+    build_top_level_with(boxes, &TopParams::DEFAULT)
+}
+
+/// The top-level tree over instance world boxes: SAH at `p.bins` bin
+/// boundaries on each cell's longest axis, each box listed in every leaf
+/// whose cell it overlaps. Boxes that are empty (an instance of a missing
+/// mesh) are left out. One thread, no allocation per cell: the cells'
+/// instance indices live in one stack-like scratch buffer and the nodes
+/// are written straight into the kernel's layout (docs/results.md,
+/// `## Scenes`, has its time for 10,000 instances).
+#[must_use]
+pub fn build_top_level_with(boxes: &[Bounds], p: &TopParams) -> BuiltTree {
+    let bounds = boxes
+        .iter()
+        .filter(|b| b.min[0] <= b.max[0])
+        .fold(Bounds::EMPTY, |a, b| a.union(b));
+    let bounds = if bounds.min[0] <= bounds.max[0] {
+        bounds
+    } else {
+        Bounds::ZERO
+    };
+    // Boxes are not clipped to their cells: a cell holds only boxes that
+    // overlap it, so a box's side of a plane inside the cell and its bins
+    // (clamped to the cell's) are those of its clipped box.
+    let mut refs: Vec<u32> = (0..boxes.len() as u32)
+        .filter(|&i| boxes[i as usize].min[0] <= boxes[i as usize].max[0])
+        .collect();
+    let log2 = usize::BITS - refs.len().leading_zeros();
+    let limit = (p.extra_depth + log2).min(MAX_DEPTH);
+    let p = TopParams {
+        bins: p.bins.clamp(2, MAX_BINS),
+        ..*p
+    };
+    let mut out = BuiltTree {
+        nodes: vec![Node::EMPTY_LEAF],
+        prims: Vec::with_capacity(refs.len() * 5),
+        bounds,
+        max_depth: 0,
+    };
+    let mut interiors = 0usize;
+    // Cells still to build: (slot, start of its references in `refs`,
+    // cell, depth). The top cell's references run to the end of `refs`;
+    // the cells beneath it end where the next one starts.
+    let mut todo = vec![(0usize, 0usize, bounds, 0u32)];
+    while let Some((slot, start, cell, depth)) = todo.pop() {
+        out.max_depth = out.max_depth.max(depth);
+        let n = refs.len() - start;
+        let split = if n <= p.leaf_size.max(1) || depth >= limit {
+            None
+        } else {
+            best_plane(boxes, &refs[start..], &cell, &p)
+                .filter(|&(_, _, cost)| cost < p.cost.leaf(n))
+        };
+        let Some((axis, plane, _)) = split else {
+            out.nodes[slot] = leaf(&refs[start..], &mut out.prims);
+            refs.truncate(start);
+            continue;
+        };
+        // Below when the box starts before the plane, above when it ends
+        // after it or starts on it: every point of the box in a cell that
+        // holds it (cells are closed). The above side is compacted in
+        // place, the below side appended and moved down beside it (it is
+        // built first, as the layout numbers interior nodes depth-first);
+        // both stay in index order, so leaves need no sort.
+        // Branch-free: each reference is written to both sides' next slot
+        // and kept where its side holds it (the planes' sides are
+        // unpredictable).
+        let end = refs.len();
+        refs.resize(end + n + 1, 0);
+        let (cur, spare) = refs[start..].split_at_mut(n);
+        let (mut n_above, mut n_below) = (0, 0);
+        for k in 0..n {
+            let i = cur[k];
+            let b = &boxes[i as usize];
+            spare[n_below] = i;
+            n_below += usize::from(b.min[axis] < plane);
+            cur[n_above] = i;
+            n_above += usize::from(b.max[axis] > plane || b.min[axis] >= plane);
+        }
+        refs.truncate(end + n_below);
+        if n_below == n && n_above == n {
+            // Every box straddles the plane: splitting gains nothing.
+            refs.truncate(end);
+            out.nodes[slot] = leaf(&refs[start..], &mut out.prims);
+            refs.truncate(start);
+            continue;
+        }
+        refs.copy_within(end.., start + n_above);
+        refs.truncate(start + n_above + n_below);
+        let child = 2 * interiors + 1;
+        interiors += 1;
+        out.nodes[slot] = Node::interior([Axis::X, Axis::Y, Axis::Z][axis], plane, child as u32)
+            .unwrap_or(Node::EMPTY_LEAF);
+        out.nodes.resize(child + 2, Node::EMPTY_LEAF);
+        let (cb, ca) = cell.split(axis, plane);
+        todo.push((child + 1, start, ca, depth + 1));
+        todo.push((child, start + n_above, cb, depth + 1));
+    }
+    out
+}
+
+/// A leaf of `refs` (in index order, each once: the partition keeps
+/// both); a run of several goes to `prims`.
+fn leaf(refs: &[u32], prims: &mut Vec<u32>) -> Node {
+    match refs {
+        [] => Node::EMPTY_LEAF,
+        [i] => Node::leaf(1, *i).unwrap_or(Node::EMPTY_LEAF),
+        _ => {
+            let at = prims.len() as u32;
+            prims.extend_from_slice(refs);
+            Node::leaf(refs.len() as u32, at).unwrap_or(Node::EMPTY_LEAF)
+        }
+    }
+}
+
+/// The cheapest of the bin boundaries on the cell's longest axis:
+/// (axis, plane, cost). (Tried: every axis, 3x the binning for trees of
+/// about the same cost on the generated level. Tried: counting the
+/// children's bins during the parent's partition, 2x slower: leaves bin
+/// too, and zeroed bin arrays ride on the stack.)
+fn best_plane(
+    boxes: &[Bounds],
+    refs: &[u32],
+    cell: &Bounds,
+    p: &TopParams,
+) -> Option<(usize, f32, f64)> {
+    let bins = p.bins;
+    let area = cell.area();
+    let n = refs.len();
+    let mut best: Option<(usize, f32, f64)> = None;
+    let ext = |a: usize| cell.max[a] - cell.min[a];
+    let longest = (0..3).fold(0, |b, a| if ext(a) > ext(b) { a } else { b });
+    for axis in [longest] {
+        let (lo, hi) = (cell.min[axis], cell.max[axis]);
+        let extent = hi - lo;
+        if extent.is_nan() || extent <= 0.0 {
+            continue;
+        }
+        let scale = bins as f32 / extent;
+        // Clamped to the cell's bins on both sides (a negative or NaN
+        // offset casts to 0).
+        let bin = |x: f32| (((x.max(lo) - lo) * scale) as usize).min(bins - 1);
+        let (mut starts, mut ends) = ([0u32; MAX_BINS], [0u32; MAX_BINS]);
+        for &i in refs {
+            let b = &boxes[i as usize];
+            starts[bin(b.min[axis])] += 1;
+            ends[bin(b.max[axis].min(hi))] += 1;
+        }
+        // Child areas in closed form: the cell's faces with this axis's
+        // length `l` are 2 (l (u + v) + u v), `u`, `v` the other two sides
+        // (Bounds::split and area per bin were most of the build's time).
+        let (u, v) = (
+            f64::from(ext((axis + 1) % 3)),
+            f64::from(ext((axis + 2) % 3)),
+        );
+        let (sum, prod) = (u + v, u * v);
+        let inv_area = if area > 0.0 { 1.0 / area } else { 0.0 };
+        let face = |l: f64| {
+            if area > 0.0 {
+                2.0 * (l * sum + prod) * inv_area
+            } else {
+                1.0
+            }
+        };
+        let (mut n_below, mut n_ended) = (0, 0);
+        for k in 1..bins {
+            n_below += starts[k - 1] as usize;
+            n_ended += ends[k - 1] as usize;
+            let plane = lo + extent * k as f32 / bins as f32;
+            if plane <= lo || plane >= hi {
+                continue;
+            }
+            let (pb, pa) = (face(f64::from(plane - lo)), face(f64::from(hi - plane)));
+            let cost = p.cost.split(pb, n_below, pa, n - n_ended);
+            if best.is_none_or(|(_, _, c)| cost < c) {
+                best = Some((axis, plane, cost));
+            }
+        }
+    }
+    best
+}
+
+/// The most bins [`TopParams::bins`] may ask for.
+const MAX_BINS: usize = 64;
+
+/// A scene built on the host: the mesh tree blobs, the instances, the top level.
+#[derive(Clone, Debug)]
+pub struct SceneParts {
+    /// Each mesh's triangle-tree blob.
+    pub meshes: Vec<Blob>,
+    /// The instances.
+    pub instances: Vec<Instance>,
+    /// The top level over the instances' world boxes.
+    pub top: BuiltTree,
+}
+
+/// Why a scene could not be built.
+#[derive(Debug)]
+pub enum SceneBuildError {
+    /// A mesh's tree could not be built.
+    Build {
+        /// The mesh.
+        mesh: usize,
+        /// Why.
+        error: BuildError,
+    },
+    /// A blob could not be written.
+    Write(WriteError),
+}
+
+impl std::fmt::Display for SceneBuildError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SceneBuildError::Build { mesh, error } => write!(f, "mesh {mesh}: {error}"),
+            SceneBuildError::Write(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for SceneBuildError {}
+
+/// Builds a tree per mesh (with `kind` and `params`) and the top level
+/// over `instances`.
+///
+/// # Errors
+/// [`SceneBuildError`] naming the mesh whose build failed.
+pub fn build_scene(
+    meshes: &[Vec<Triangle>],
+    instances: Vec<Instance>,
+    kind: BuilderKind,
+    params: &BuildParams,
+) -> Result<SceneParts, SceneBuildError> {
+    let mut blobs = Vec::with_capacity(meshes.len());
+    let mut bounds = Vec::with_capacity(meshes.len());
+    for (mesh, tris) in meshes.iter().enumerate() {
+        let tree = builders::build(tris, kind, params)
+            .map_err(|error| SceneBuildError::Build { mesh, error })?;
+        bounds.push(tree.bounds);
+        blobs.push(write_triangle_tree(&tree, tris).map_err(SceneBuildError::Write)?);
+    }
+    let top = build_top_level(&world_boxes(&bounds, &instances));
+    Ok(SceneParts {
+        meshes: blobs,
+        instances,
+        top,
+    })
+}
+
+impl SceneParts {
+    /// The validated mesh trees, for [`kdray_kernel::Scene::from_parts`].
+    ///
+    /// # Errors
+    /// The kernel's error for a mesh blob (never for one this module wrote).
+    pub fn trees(&self) -> Result<Vec<TriangleTree<'_>>, kdray_kernel::BlobError> {
+        self.meshes.iter().map(Blob::tree).collect()
+    }
+
+    /// The scene over these parts and `trees` (from [`SceneParts::trees`]),
+    /// validated ([`Scene::from_parts`]).
+    ///
+    /// # Errors
+    /// The kernel's [`SceneError`](kdray_kernel::SceneError) (never for parts this module built).
+    pub fn scene<'s>(
+        &'s self,
+        trees: &'s [TriangleTree<'s>],
+    ) -> Result<Scene<'s>, kdray_kernel::SceneError> {
+        Scene::from_parts(
+            trees,
+            &self.instances,
+            &self.top.nodes,
+            &self.top.prims,
+            self.top.bounds,
+        )
+    }
+
+    /// The scene blob.
+    ///
+    /// # Errors
+    /// [`WriteError`] when a count or offset does not fit 32 bits.
+    pub fn write(&self) -> Result<Blob, WriteError> {
+        let meshes: Vec<&[u8]> = self.meshes.iter().map(Blob::as_bytes).collect();
+        write_scene(&meshes, &self.instances, &self.top)
+    }
+}
+
+/// Writes a scene blob (layout: the kernel's `scene` module docs): the
+/// header, the top level, the instances, the mesh table, then each mesh
+/// blob at the next multiple of [`MESH_ALIGN`]. The same input gives the
+/// same bytes.
+///
+/// # Errors
+/// [`WriteError::TooMany`] for a count or offset beyond 32 bits.
+pub fn write_scene(
+    meshes: &[&[u8]],
+    instances: &[Instance],
+    top: &BuiltTree,
+) -> Result<Blob, WriteError> {
+    let count = |what: &'static str, count: usize| {
+        u32::try_from(count).map_err(|_| WriteError::TooMany { what, count })
+    };
+    let header = Header {
+        magic: MAGIC,
+        endian: ENDIAN_CHECK,
+        version: VERSION,
+        kind: KIND_SCENE,
+        max_depth: top.max_depth,
+        node_count: count("top-level nodes", top.nodes.len())?,
+        index_count: count("instance indices", top.prims.len())?,
+        item_count: count("instances", instances.len())?,
+        checksum: 0,
+        bounds_min: top.bounds.min,
+        bounds_max: top.bounds.max,
+    };
+    let mut out =
+        Vec::with_capacity(HEADER_LEN + meshes.iter().map(|m| m.len() + MESH_ALIGN).sum::<usize>());
+    out.extend_from_slice(bytemuck::bytes_of(&header));
+    out.extend_from_slice(bytemuck::cast_slice(&top.nodes));
+    out.extend_from_slice(bytemuck::cast_slice(&top.prims));
+    out.extend_from_slice(bytemuck::cast_slice(instances));
+    out.extend_from_slice(&count("meshes", meshes.len())?.to_le_bytes());
+    let table_at = out.len();
+    out.resize(table_at + 8 * meshes.len(), 0);
+    for (i, m) in meshes.iter().enumerate() {
+        out.resize(out.len().next_multiple_of(MESH_ALIGN), 0);
+        let entry = [
+            count("mesh offset", out.len())?,
+            count("mesh length", m.len())?,
+        ];
+        out[table_at + 8 * i..table_at + 8 * i + 8].copy_from_slice(bytemuck::cast_slice(&entry));
+        out.extend_from_slice(m);
+    }
+    let sum = blob_checksum(&out);
+    out[CHECKSUM_OFFSET..CHECKSUM_OFFSET + 4].copy_from_slice(&sum.to_le_bytes());
+    Ok(Blob::from_bytes(&out))
+}
+
+/// `p` through a 3×4 row-major transform, in `f32`, rows summed left to
+/// right (the kernel's [`Instance::local_ray`] arithmetic).
+#[must_use]
+pub fn transform_point(m: &[f32; 12], p: [f32; 3]) -> [f32; 3] {
+    core::array::from_fn(|r| {
+        ((m[r * 4] * p[0] + m[r * 4 + 1] * p[1]) + m[r * 4 + 2] * p[2]) + m[r * 4 + 3]
+    })
+}
+
+/// The flattened scene: every instance's triangles through its transform,
+/// in instance order, each mesh's triangles in mesh order. Triangle `p` of
+/// instance `i` has index `flattened_offsets(..)[i] + p`.
+#[must_use]
+pub fn flatten_scene<M: AsRef<[Triangle]>>(meshes: &[M], instances: &[Instance]) -> Vec<Triangle> {
+    let mut out = Vec::new();
+    for inst in instances {
+        let m = inst.to_world();
+        if let Some(tris) = meshes.get(inst.mesh() as usize) {
+            out.extend(tris.as_ref().iter().map(|t| Triangle {
+                v: t.v.map(|p| transform_point(&m, p)),
+            }));
+        }
+    }
+    out
+}
+
+/// Where each instance's triangles start in the flattened order (the
+/// prefix sums of their meshes' triangle counts).
+#[must_use]
+pub fn flattened_offsets(mesh_sizes: &[usize], instances: &[Instance]) -> Vec<u64> {
+    let mut at = 0u64;
+    instances
+        .iter()
+        .map(|i| {
+            let start = at;
+            at += mesh_sizes.get(i.mesh() as usize).copied().unwrap_or(0) as u64;
+            start
+        })
+        .collect()
+}
+
+/// A rotation by `angle` about unit `axis`, scaled by `scale` per local
+/// axis, then moved by `shift`: a 3×4 row-major transform.
+#[must_use]
+pub fn placement(axis: [f32; 3], angle: f32, scale: [f32; 3], shift: [f32; 3]) -> [f32; 12] {
+    let r = glam::Mat3::from_axis_angle(glam::Vec3::from(axis).normalize_or(glam::Vec3::Y), angle)
+        * glam::Mat3::from_diagonal(glam::Vec3::from(scale));
+    let c = r.to_cols_array_2d();
+    [
+        c[0][0], c[1][0], c[2][0], shift[0], //
+        c[0][1], c[1][1], c[2][1], shift[1], //
+        c[0][2], c[1][2], c[2][2], shift[2],
+    ]
+}
+
+/// A UV sphere of radius 1 about the origin: `rings` × `segments` quads.
+#[must_use]
+pub fn sphere(rings: usize, segments: usize) -> Vec<Triangle> {
+    let p = |i: usize, j: usize| {
+        let th = std::f32::consts::PI * i as f32 / rings as f32;
+        let ph = std::f32::consts::TAU * j as f32 / segments as f32;
+        [th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()]
+    };
+    grid(rings, segments, p)
+}
+
+/// A torus of radii 1 and 0.3 about the y axis.
+#[must_use]
+pub fn torus(rings: usize, segments: usize) -> Vec<Triangle> {
+    let p = |i: usize, j: usize| {
+        let a = std::f32::consts::TAU * i as f32 / rings as f32;
+        let b = std::f32::consts::TAU * j as f32 / segments as f32;
+        let r = 1.0 + 0.3 * b.cos();
+        [r * a.cos(), 0.3 * b.sin(), r * a.sin()]
+    };
+    grid(rings, segments, p)
+}
+
+fn grid(n: usize, m: usize, p: impl Fn(usize, usize) -> [f32; 3]) -> Vec<Triangle> {
+    let mut out = Vec::with_capacity(2 * n * m);
+    for i in 0..n {
+        for j in 0..m {
+            let (a, b, c, d) = (p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1));
+            out.push(Triangle { v: [a, b, c] });
+            out.push(Triangle { v: [a, c, d] });
+        }
+    }
+    out
+}
+
+/// A generated level: `copies` transformed copies of a sphere and of a
+/// torus (random rotations, scales from 0.3 to 2 per axis, every fifth
+/// mirrored) over a `size` × `size` square, plus a floor (mesh 2, one
+/// instance). Returns the meshes and the instances.
+#[must_use]
+pub fn generated_level(copies: usize, size: f32, seed: u64) -> (Vec<Vec<Triangle>>, Vec<Instance>) {
+    let floor = vec![
+        Triangle {
+            v: [[-1.0, 0.0, -1.0], [1.0, 0.0, -1.0], [1.0, 0.0, 1.0]],
+        },
+        Triangle {
+            v: [[-1.0, 0.0, -1.0], [1.0, 0.0, 1.0], [-1.0, 0.0, 1.0]],
+        },
+    ];
+    let meshes = vec![sphere(24, 48), torus(48, 24), floor];
+    let mut rng = Rng::new(seed);
+    let mut instances = Vec::with_capacity(2 * copies + 1);
+    for k in 0..2 * copies {
+        let mut scale = [
+            rng.range(0.3, 2.0),
+            rng.range(0.3, 2.0),
+            rng.range(0.3, 2.0),
+        ];
+        if k % 5 == 4 {
+            scale[0] = -scale[0];
+        }
+        let shift = [
+            rng.range(-size, size) * 0.5,
+            rng.range(0.0, 2.0),
+            rng.range(-size, size) * 0.5,
+        ];
+        let m = placement(
+            rng.unit_vector(),
+            rng.range(0.0, std::f32::consts::TAU),
+            scale,
+            shift,
+        );
+        if let Some(inst) = Instance::new((k % 2) as u32, m, k as u32, 1 << (k % 4)) {
+            instances.push(inst);
+        }
+    }
+    let half = size * 0.5 + 2.0;
+    let floor_m = placement([0.0, 1.0, 0.0], 0.0, [half, 1.0, half], [0.0, 0.0, 0.0]);
+    instances.extend(Instance::new(2, floor_m, u32::MAX, u32::MAX));
+    (meshes, instances)
+}
+
+/// Is `bytes` a scene blob (by its header's kind; nothing else checked)?
+#[must_use]
+pub fn is_scene_blob(bytes: &[u8]) -> bool {
+    bytes.get(16..20) == Some(&KIND_SCENE.to_le_bytes()[..])
+}
+
+/// Where each instance's triangles start in the flattened order of `scene`.
+#[must_use]
+pub fn scene_offsets(scene: &Scene<'_>) -> Vec<u64> {
+    let sizes: Vec<usize> = (0..scene.mesh_count())
+        .map(|m| scene.mesh(m).map_or(0, |t| t.triangles().len()))
+        .collect();
+    flattened_offsets(&sizes, scene.instances())
+}
+
+/// Traces `rays` through `scene` (every instance: mask all ones) on the
+/// current rayon pool into `hits`, as hit-file records: `prim` is the
+/// triangle's index in the flattened order ([`flatten_scene`]; for a glTF
+/// scene, the order `kdray build` without `--instances` uses); `any`
+/// writes occlusion records.
+pub fn trace_scene(scene: &Scene<'_>, offsets: &[u64], rays: &[Ray], hits: &mut [Hit], any: bool) {
+    use rayon::prelude::*;
+    hits.par_chunks_mut(1024)
+        .zip(rays.par_chunks(1024))
+        .for_each(|(hs, rs)| {
+            for (h, r) in hs.iter_mut().zip(rs) {
+                *h = if any {
+                    Hit::occlusion(scene.any_hit(r, u32::MAX))
+                } else {
+                    let s = scene.closest_hit(r, u32::MAX);
+                    match offsets.get(s.instance as usize) {
+                        Some(&at) if s.is_hit() => Hit {
+                            prim: u32::try_from(at + u64::from(s.prim))
+                                .unwrap_or(kdray_kernel::MISS),
+                            ..s.hit()
+                        },
+                        _ => Hit::MISS,
+                    }
+                };
+            }
+        });
+}
+
+/// A scene as the renderer's [`Tracer`](crate::render::Tracer): hits
+/// numbered in the flattened order, shaded on the flattened triangles.
+#[derive(Debug)]
+pub struct SceneTracer<'s, 'a> {
+    scene: &'s Scene<'a>,
+    offsets: Vec<u64>,
+    flat: Vec<Triangle>,
+}
+
+impl<'s, 'a> SceneTracer<'s, 'a> {
+    /// The tracer of `scene` (its flattened triangles are made here).
+    #[must_use]
+    pub fn new(scene: &'s Scene<'a>) -> SceneTracer<'s, 'a> {
+        let meshes: Vec<&[Triangle]> = (0..scene.mesh_count())
+            .map(|m| scene.mesh(m).map_or(&[][..], |t| t.triangles()))
+            .collect();
+        SceneTracer {
+            scene,
+            offsets: scene_offsets(scene),
+            flat: flatten_scene(&meshes, scene.instances()),
+        }
+    }
+}
+
+impl crate::render::Tracer for SceneTracer<'_, '_> {
+    fn triangles(&self) -> &[Triangle] {
+        &self.flat
+    }
+    fn packet_width(&self) -> kdray_kernel::PacketWidth {
+        kdray_kernel::PacketWidth::One
+    }
+    fn closest(&self, rays: &[Ray], hits: &mut [Hit]) {
+        for (h, r) in hits.iter_mut().zip(rays) {
+            *h = flat_hit(&self.offsets, self.scene.closest_hit(r, u32::MAX));
+        }
+    }
+    fn occluded(&self, rays: &[Ray], out: &mut [bool]) {
+        for (o, r) in out.iter_mut().zip(rays) {
+            *o = self.scene.any_hit(r, u32::MAX);
+        }
+    }
+}
+
+/// A scene hit as a hit-file record: `prim` in the flattened order.
+fn flat_hit(offsets: &[u64], s: kdray_kernel::SceneHit) -> Hit {
+    match offsets.get(s.instance as usize) {
+        Some(&at) if s.is_hit() => Hit {
+            prim: u32::try_from(at + u64::from(s.prim)).unwrap_or(kdray_kernel::MISS),
+            ..s.hit()
+        },
+        _ => Hit::MISS,
+    }
+}

@@ -93,6 +93,7 @@
 // (docs/architecture.md): geometry -> lanes -> triangle -> blob ->
 // triangle_tree, points.
 mod blob;
+pub mod cpu;
 mod geometry;
 mod lanes;
 mod points;
@@ -101,6 +102,7 @@ mod test_rng;
 mod triangle;
 mod triangle_tree;
 
+pub use cpu::{isa, set_isa, Isa, IsaUnsupported};
 pub use blob::{node, wire, BlobError, Node, NodeKind, WriteError, MAX_DEPTH};
 pub use geometry::{ray_is_valid, Axis, Bounds, Hit, Ray, MISS, OCCLUDED};
 /// The `glam` whose `Vec3` the ray constructors take: use it (or this

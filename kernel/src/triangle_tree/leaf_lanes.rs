@@ -19,7 +19,7 @@
 //! triangle index): the answer stays brute force's, bit for bit.
 
 use crate::geometry::MISS;
-use crate::lanes::Lanes;
+use crate::lanes::{dispatch, Job, Lanes, Level};
 use crate::triangle::lanes::{watertight, LaneHits};
 use crate::triangle::{plane_t, Closest, ShearedRay, Triangle, TriangleHit};
 
@@ -148,10 +148,12 @@ impl<'r, V: Lanes<N>, const N: usize> LeafRay<'r, V, N> {
     }
 }
 
-/// The closest-hit leaf test in `f32x8` lanes: [`LeafRay::closest`]. Out
-/// of line: inlined, its vector registers crowded the walk's own values
-/// out of registers (measured: ~5% slower on camera rays).
-#[inline(never)]
+/// The closest-hit leaf test in 8 lanes at the current instruction set
+/// level ([`crate::cpu`]): [`LeafRay::closest`]. Out of line (each level's
+/// body is its own function): inlined, its vector registers crowded the
+/// walk's own values out of registers (measured: ~5% slower on camera
+/// rays).
+#[inline(always)]
 pub(crate) fn closest_x8(
     sr: &ShearedRay,
     tris: &[Triangle],
@@ -159,11 +161,17 @@ pub(crate) fn closest_x8(
     tmin: f32,
     best: &mut Closest,
 ) {
-    LeafRay::<wide::f32x8, 8>::new(sr).closest(tris, prims, tmin, best);
+    dispatch(LeafClosest {
+        sr,
+        tris,
+        prims,
+        tmin,
+        best,
+    });
 }
 
-/// The any-hit leaf test in `f32x8` lanes: [`LeafRay::any`], out of line.
-#[inline(never)]
+/// The any-hit leaf test in 8 lanes: [`LeafRay::any`], as [`closest_x8`].
+#[inline(always)]
 pub(crate) fn any_x8(
     sr: &ShearedRay,
     tris: &[Triangle],
@@ -171,7 +179,47 @@ pub(crate) fn any_x8(
     tmin: f32,
     tmax: f32,
 ) -> bool {
-    LeafRay::<wide::f32x8, 8>::new(sr).any(tris, prims, tmin, tmax)
+    dispatch(LeafAny {
+        sr,
+        tris,
+        prims,
+        tmin,
+        tmax,
+    })
+}
+
+/// [`closest_x8`]'s arguments.
+struct LeafClosest<'a, 'b> {
+    sr: &'a ShearedRay,
+    tris: &'a [Triangle],
+    prims: &'a [u32],
+    tmin: f32,
+    best: &'b mut Closest,
+}
+
+impl Job for LeafClosest<'_, '_> {
+    type Out = ();
+    #[inline(always)]
+    fn run<L: Level>(self) {
+        LeafRay::<L::X8, 8>::new(self.sr).closest(self.tris, self.prims, self.tmin, self.best);
+    }
+}
+
+/// [`any_x8`]'s arguments.
+struct LeafAny<'a> {
+    sr: &'a ShearedRay,
+    tris: &'a [Triangle],
+    prims: &'a [u32],
+    tmin: f32,
+    tmax: f32,
+}
+
+impl Job for LeafAny<'_> {
+    type Out = bool;
+    #[inline(always)]
+    fn run<L: Level>(self) -> bool {
+        LeafRay::<L::X8, 8>::new(self.sr).any(self.tris, self.prims, self.tmin, self.tmax)
+    }
 }
 
 #[cfg(test)]

@@ -102,8 +102,8 @@ mod test_rng;
 mod triangle;
 mod triangle_tree;
 
-pub use cpu::{isa, set_isa, Isa, IsaUnsupported};
 pub use blob::{node, wire, BlobError, Node, NodeKind, WriteError, MAX_DEPTH};
+pub use cpu::{isa, set_isa, Isa, IsaUnsupported};
 pub use geometry::{ray_is_valid, Axis, Bounds, Hit, Ray, MISS, OCCLUDED};
 /// The `glam` whose `Vec3` the ray constructors take: use it (or this
 /// version of the crate) so the types match.

@@ -27,9 +27,7 @@ macro_rules! avx {
     ($e:expr) => {
         // SAFETY: values of `Avx8`/`Avx16` exist only in code reached
         // after the level's features were detected (module docs).
-        unsafe {
-            $e
-        }
+        unsafe { $e }
     };
 }
 
@@ -158,8 +156,31 @@ fn transpose8(r: [__m256; 8]) -> [__m256; 8] {
 /// [`Lanes::columns`] for 8 lanes: a ray is 8 floats, so an 8x8 transpose.
 #[inline(always)]
 fn columns8(rays: &[Ray]) -> [Avx8; 8] {
-    let rows = core::array::from_fn(|l| Avx8::from_array(ray_floats(rays, l)).0);
-    transpose8(rows).map(Avx8)
+    // No closures around the intrinsics (`dispatch.rs`).
+    #[inline(always)]
+    fn row(rays: &[Ray], l: usize) -> __m256 {
+        Avx8::from_array(ray_floats(rays, l)).0
+    }
+    let r = transpose8([
+        row(rays, 0),
+        row(rays, 1),
+        row(rays, 2),
+        row(rays, 3),
+        row(rays, 4),
+        row(rays, 5),
+        row(rays, 6),
+        row(rays, 7),
+    ]);
+    [
+        Avx8(r[0]),
+        Avx8(r[1]),
+        Avx8(r[2]),
+        Avx8(r[3]),
+        Avx8(r[4]),
+        Avx8(r[5]),
+        Avx8(r[6]),
+        Avx8(r[7]),
+    ]
 }
 
 impl Lanes<8> for Avx8 {
@@ -252,7 +273,10 @@ impl Avx16 {
     /// Lanes `0..8` and `8..16` from two 8-lane vectors.
     #[inline(always)]
     fn join(lo: __m256, hi: __m256) -> Self {
-        Avx16(avx!(_mm512_insertf32x8::<1>(_mm512_castps256_ps512(lo), hi)))
+        Avx16(avx!(_mm512_insertf32x8::<1>(
+            _mm512_castps256_ps512(lo),
+            hi
+        )))
     }
 
     /// Lanes `8 h..8 h + 8`.
@@ -280,12 +304,23 @@ impl Lanes<16> for Avx16 {
     fn columns(rays: &[Ray]) -> [Self; 8] {
         let (lo, hi) = rays.split_at(rays.len().min(8));
         let (a, b) = (columns8(lo), columns8(hi));
-        core::array::from_fn(|c| Avx16::join(a[c].0, b[c].0))
+        let j = Avx16::join;
+        [
+            j(a[0].0, b[0].0),
+            j(a[1].0, b[1].0),
+            j(a[2].0, b[2].0),
+            j(a[3].0, b[3].0),
+            j(a[4].0, b[4].0),
+            j(a[5].0, b[5].0),
+            j(a[6].0, b[6].0),
+            j(a[7].0, b[7].0),
+        ]
     }
     #[inline(always)]
     fn records(cols: [Self; 4]) -> [[f32; 4]; 16] {
-        let lo = Avx8::records(cols.map(Avx16::half::<0>));
-        let hi = Avx8::records(cols.map(Avx16::half::<1>));
+        let [a, b, c, d] = cols;
+        let lo = Avx8::records([a.half::<0>(), b.half::<0>(), c.half::<0>(), d.half::<0>()]);
+        let hi = Avx8::records([a.half::<1>(), b.half::<1>(), c.half::<1>(), d.half::<1>()]);
         bytemuck::cast([lo, hi])
     }
     #[inline(always)]

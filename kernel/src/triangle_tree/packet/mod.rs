@@ -416,13 +416,7 @@ macro_rules! slice_jobs {
             #[inline(always)]
             fn run<L: Level>(self) {
                 let $job(tree, rays, out) = self;
-                in_packets::<L::$x, _, $n>(
-                    tree,
-                    rays,
-                    out,
-                    |lr, st| Q::lanes(tree, lr, st),
-                    |r| Q::one(tree, r),
-                );
+                in_packets::<L::$x, Q, $n>(tree, rays, out);
             }
         }
     )*};
@@ -486,28 +480,30 @@ impl SliceQuery for AnyHit {
 
 /// Traces `rays` in packets of `N` consecutive rays (the last one partly
 /// inactive) and writes each lane's answer to `out`; packets whose rays
-/// disagree on a direction sign go ray by ray through `one`. Out of line:
+/// disagree on a direction sign go ray by ray (`Q::one`). Out of line:
 /// one function per width, query and level (its `Job` wrapper), each with
 /// its own registers (with a third width inlined into `slice_with`, the
 /// 8-wide walk lost ~5%).
 #[inline(always)]
-fn in_packets<V: Lanes<N>, T: Copy, const N: usize>(
+fn in_packets<V: Lanes<N>, Q: SliceQuery, const N: usize>(
     tree: &TriangleTree<'_>,
     rays: &[Ray],
-    out: &mut [T],
-    trace: impl Fn(&LaneRays<V, N>, &mut LaneStack<V>) -> [T; N],
-    one: impl Fn(&Ray) -> T,
+    out: &mut [Q::Out],
 ) {
     let mut stack = LaneStack::new(V::splat(0.0));
     for (rs, os) in rays.chunks(N).zip(out.chunks_mut(N)) {
         let cols = LaneRays::<V, N>::columns(rs);
         if !LaneRays::signs_agree(&cols) {
             for (o, r) in os.iter_mut().zip(rs) {
-                *o = one(r);
+                *o = Q::one(tree, r);
             }
             continue;
         }
-        let answers = trace(&LaneRays::from_rays(&cols, rs, &tree.bounds), &mut stack);
+        let answers = Q::lanes(
+            tree,
+            &LaneRays::from_rays(&cols, rs, &tree.bounds),
+            &mut stack,
+        );
         for (o, a) in os.iter_mut().zip(answers).take(rs.len()) {
             *o = a;
         }

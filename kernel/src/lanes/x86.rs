@@ -17,7 +17,7 @@
 //! which the entry points call only at that detected level. Each
 //! `unsafe` block below rests on that rule ([`avx!`]).
 
-use super::{Lanes, Real, Span};
+use super::{ray_floats, Lanes, Real, Span};
 use crate::geometry::Ray;
 use core::arch::x86_64::*;
 use core::ops::{Add, BitAnd, BitOr, Div, Mul, Sub};
@@ -112,12 +112,6 @@ impl Real for Avx16 {
         let m = avx!(_mm512_castsi512_ps(_mm512_set1_epi32(i32::MAX)));
         Avx16(avx!(_mm512_and_ps(self.0, m)))
     }
-}
-
-/// Ray `l` of `rays` as its 8 floats (zeros past the end).
-#[inline(always)]
-fn ray_floats(rays: &[Ray], l: usize) -> [f32; 8] {
-    rays.get(l).map_or([0.0; 8], |r| bytemuck::cast(*r))
 }
 
 /// An 8x8 transpose: row `r`, lane `c` to row `c`, lane `r`.

@@ -97,6 +97,7 @@
 // (docs/architecture.md): geometry -> lanes -> triangle -> blob ->
 // triangle_tree, points -> scene.
 mod blob;
+pub mod cpu;
 mod geometry;
 mod lanes;
 mod points;
@@ -107,6 +108,7 @@ mod triangle;
 mod triangle_tree;
 
 pub use blob::{node, wire, BlobError, Node, NodeKind, WriteError, MAX_DEPTH};
+pub use cpu::{isa, set_isa, Isa, IsaUnsupported};
 pub use geometry::{ray_is_valid, Axis, Bounds, Hit, Ray, MISS, OCCLUDED};
 /// The `glam` whose `Vec3` the ray constructors take: use it (or this
 /// version of the crate) so the types match.

@@ -10,8 +10,12 @@
 //! control flow reads them as bitmasks (bit `l` = lane `l`), one per
 //! decision.
 
+mod dispatch;
 mod span;
+#[cfg(target_arch = "x86_64")]
+mod x86;
 
+pub(crate) use dispatch::{dispatch, Job, Level};
 pub(crate) use span::Span;
 
 use crate::geometry::Ray;

@@ -19,7 +19,7 @@
 //! triangle index): the answer stays brute force's, bit for bit.
 
 use crate::geometry::MISS;
-use crate::lanes::Lanes;
+use crate::lanes::{dispatch, Job, Lanes, Level};
 use crate::triangle::lanes::{watertight, LaneHits};
 use crate::triangle::{plane_t, Closest, ShearedRay, Triangle, TriangleHit};
 
@@ -49,8 +49,12 @@ impl<'r, V: Lanes<N>, const N: usize> LeafRay<'r, V, N> {
         LeafRay {
             sr,
             k,
-            org: k.map(|k| V::splat(sr.org[k])),
-            shear: sr.s.map(V::splat),
+            org: [
+                V::splat(sr.org[k[0]]),
+                V::splat(sr.org[k[1]]),
+                V::splat(sr.org[k[2]]),
+            ],
+            shear: [V::splat(sr.s[0]), V::splat(sr.s[1]), V::splat(sr.s[2])],
         }
     }
 
@@ -87,15 +91,8 @@ impl<'r, V: Lanes<N>, const N: usize> LeafRay<'r, V, N> {
         }
         // Each vertex relative to the origin, sheared so the ray is +z: the
         // scalar test's `rel`, lane by lane.
-        let [kx, ky, kz] = self.k;
-        let rel = |row: &[[f32; N]; 3]| {
-            let x = V::from_array(row[kx]) - self.org[0];
-            let y = V::from_array(row[ky]) - self.org[1];
-            let z = V::from_array(row[kz]) - self.org[2];
-            (x - self.shear[0] * z, y - self.shear[1] * z, z)
-        };
         let [vx, vy, vz] = &rows;
-        let (a, b, c) = (rel(vx), rel(vy), rel(vz));
+        let (a, b, c) = (self.rel(vx), self.rel(vy), self.rel(vz));
         let sr = self.sr;
         let exact_t = |l: usize| {
             let tri = prims.get(l).and_then(|&p| tris.get(p as usize));
@@ -103,6 +100,18 @@ impl<'r, V: Lanes<N>, const N: usize> LeafRay<'r, V, N> {
         };
         let (tmin, tmax) = (V::splat(tmin), V::splat(tmax));
         watertight::<V, N, ANY>(a, b, c, self.shear[2], live, tmin, tmax, exact_t)
+    }
+
+    /// A vertex row relative to the origin, sheared so the ray is +z: the
+    /// scalar test's `rel`, lane by lane. (A method, not a closure: see
+    /// [`crate::lanes::dispatch`].)
+    #[inline(always)]
+    fn rel(&self, row: &[[f32; N]; 3]) -> (V, V, V) {
+        let [kx, ky, kz] = self.k;
+        let x = V::from_array(row[kx]) - self.org[0];
+        let y = V::from_array(row[ky]) - self.org[1];
+        let z = V::from_array(row[kz]) - self.org[2];
+        (x - self.shear[0] * z, y - self.shear[1] * z, z)
     }
 
     /// Tests the triangles `prims` over `[tmin, best.t]`, `N` at a time,
@@ -142,16 +151,21 @@ impl<'r, V: Lanes<N>, const N: usize> LeafRay<'r, V, N> {
     /// Does any of the triangles `prims` hit within `[tmin, tmax]`?
     #[inline(always)]
     pub(crate) fn any(&self, tris: &[Triangle], prims: &[u32], tmin: f32, tmax: f32) -> bool {
-        prims
-            .chunks(N)
-            .any(|chunk| self.hits::<true>(tris, chunk, MISS, tmin, tmax).is_some())
+        for chunk in prims.chunks(N) {
+            if self.hits::<true>(tris, chunk, MISS, tmin, tmax).is_some() {
+                return true;
+            }
+        }
+        false
     }
 }
 
-/// The closest-hit leaf test in `f32x8` lanes: [`LeafRay::closest`]. Out
-/// of line: inlined, its vector registers crowded the walk's own values
-/// out of registers (measured: ~5% slower on camera rays).
-#[inline(never)]
+/// The closest-hit leaf test in 8 lanes at the current instruction set
+/// level ([`crate::cpu`]): [`LeafRay::closest`]. Out of line (each level's
+/// body is its own function): inlined, its vector registers crowded the
+/// walk's own values out of registers (measured: ~5% slower on camera
+/// rays).
+#[inline(always)]
 pub(crate) fn closest_x8(
     sr: &ShearedRay,
     tris: &[Triangle],
@@ -159,11 +173,17 @@ pub(crate) fn closest_x8(
     tmin: f32,
     best: &mut Closest,
 ) {
-    LeafRay::<wide::f32x8, 8>::new(sr).closest(tris, prims, tmin, best);
+    dispatch(LeafClosest {
+        sr,
+        tris,
+        prims,
+        tmin,
+        best,
+    });
 }
 
-/// The any-hit leaf test in `f32x8` lanes: [`LeafRay::any`], out of line.
-#[inline(never)]
+/// The any-hit leaf test in 8 lanes: [`LeafRay::any`], as [`closest_x8`].
+#[inline(always)]
 pub(crate) fn any_x8(
     sr: &ShearedRay,
     tris: &[Triangle],
@@ -171,7 +191,47 @@ pub(crate) fn any_x8(
     tmin: f32,
     tmax: f32,
 ) -> bool {
-    LeafRay::<wide::f32x8, 8>::new(sr).any(tris, prims, tmin, tmax)
+    dispatch(LeafAny {
+        sr,
+        tris,
+        prims,
+        tmin,
+        tmax,
+    })
+}
+
+/// [`closest_x8`]'s arguments.
+struct LeafClosest<'a, 'b> {
+    sr: &'a ShearedRay,
+    tris: &'a [Triangle],
+    prims: &'a [u32],
+    tmin: f32,
+    best: &'b mut Closest,
+}
+
+impl Job for LeafClosest<'_, '_> {
+    type Out = ();
+    #[inline(always)]
+    fn run<L: Level>(self) {
+        LeafRay::<L::X8, 8>::new(self.sr).closest(self.tris, self.prims, self.tmin, self.best);
+    }
+}
+
+/// [`any_x8`]'s arguments.
+struct LeafAny<'a> {
+    sr: &'a ShearedRay,
+    tris: &'a [Triangle],
+    prims: &'a [u32],
+    tmin: f32,
+    tmax: f32,
+}
+
+impl Job for LeafAny<'_> {
+    type Out = bool;
+    #[inline(always)]
+    fn run<L: Level>(self) -> bool {
+        LeafRay::<L::X8, 8>::new(self.sr).any(self.tris, self.prims, self.tmin, self.tmax)
+    }
 }
 
 #[cfg(test)]

@@ -75,6 +75,10 @@ pub(crate) fn main() -> ExitCode {
     let cli = Cli::parse();
     #[cfg(unix)]
     signals::install();
+    if let Err(e) = apply_isa_env() {
+        eprintln!("kdray: error: {e}");
+        return ExitCode::FAILURE;
+    }
     let result = match cli.command {
         Some(Command::Build(a)) => build_tree::run(&a),
         Some(Command::Info(a)) => info::run(&a),
@@ -96,6 +100,28 @@ pub(crate) fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// `KDRAY_ISA=baseline|sse2|avx2|avx512` pins the kernel's lane code to
+/// one instruction set level (`kdray_kernel::cpu`); unset or empty, the
+/// processor's best. The answers are the same at every level.
+fn apply_isa_env() -> Result<(), String> {
+    let Some(v) = std::env::var_os("KDRAY_ISA") else {
+        return Ok(());
+    };
+    let Some(name) = v.to_str().filter(|s| !s.is_empty()) else {
+        return if v.is_empty() {
+            Ok(())
+        } else {
+            Err(format!(
+                "KDRAY_ISA={v:?} is not valid UTF-8 (use baseline, sse2, avx2 or avx512)"
+            ))
+        };
+    };
+    let level = kdray_kernel::Isa::from_name(name).ok_or_else(|| {
+        format!("KDRAY_ISA={name:?} is not an instruction set level (use baseline, sse2, avx2 or avx512)")
+    })?;
+    kdray_kernel::set_isa(level).map_err(|e| format!("KDRAY_ISA={name}: {e}"))
 }
 
 /// The most worker threads a command starts: past the cores, threads only

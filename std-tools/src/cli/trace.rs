@@ -94,6 +94,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             .num("threads", pool.current_num_threads() as f64)
             .str("query", if a.any_hit { "any" } else { "closest" })
             .num("packet", a.packet.lanes() as f64)
+            .str("isa", kdray_kernel::isa().name())
             .num("repeat", f64::from(a.repeat))
             .num("seconds", seconds)
             .num("mrays_per_s", mrays)

@@ -23,20 +23,26 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
     #[inline(always)]
     fn shear_vertex(&self, k: Option<[Axis; 3]>, p: &[f32; 3]) -> (V, V, V) {
         // p[k[j]] per lane; the subtraction is then the scalar q[k[j]].
-        let pk = |j: usize| match k {
+        let qx = self.permuted(k, p, 0) - self.org_k[0];
+        let qy = self.permuted(k, p, 1) - self.org_k[1];
+        let qz = self.permuted(k, p, 2) - self.org_k[2];
+        (qx - self.shear[0] * qz, qy - self.shear[1] * qz, qz)
+    }
+
+    /// `p[k[j]]` in each lane. (A method, not a closure: see
+    /// [`crate::lanes::dispatch`].)
+    #[inline(always)]
+    fn permuted(&self, k: Option<[Axis; 3]>, p: &[f32; 3], j: usize) -> V {
+        match k {
             // An `Axis` is below 3, as the compiler knows: no bounds check,
             // and the fallback is never taken.
             Some(k) => V::splat(p.get(k[j].index()).copied().unwrap_or(f32::NAN)),
             None => {
-                let [is0, is1] = self.k_is[j];
-                let [x, y, z] = p.map(V::splat);
+                let [is0, is1] = self.k_is.get(j).copied().unwrap_or(self.k_is[2]);
+                let [x, y, z] = [V::splat(p[0]), V::splat(p[1]), V::splat(p[2])];
                 V::select(is0, x, V::select(is1, y, z))
             }
-        };
-        let qx = pk(0) - self.org_k[0];
-        let qy = pk(1) - self.org_k[1];
-        let qz = pk(2) - self.org_k[2];
-        (qx - self.shear[0] * qz, qy - self.shear[1] * qz, qz)
+        }
     }
 
     /// Tests `tri` against the lanes in `live` over each lane's
@@ -52,7 +58,12 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
         live: u32,
         tmax: V,
     ) -> Option<LaneHits<V>> {
-        let [a, b, c] = tri.v.each_ref().map(|p| self.shear_vertex(k, p));
+        let [p0, p1, p2] = &tri.v;
+        let (a, b, c) = (
+            self.shear_vertex(k, p0),
+            self.shear_vertex(k, p1),
+            self.shear_vertex(k, p2),
+        );
         let exact_t = |l: usize| {
             let at = |v: &V| v.lane(l);
             plane_t(

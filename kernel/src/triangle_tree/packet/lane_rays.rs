@@ -118,10 +118,13 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
     /// rays cost. A lane's bitmask is its sign bit.
     #[inline(always)]
     pub(crate) fn signs_agree(cols: &Columns<V>) -> bool {
-        cols.dir.iter().all(|d| {
-            let neg = d.bits() & cols.valid;
-            neg == 0 || neg == cols.valid
-        })
+        let v = cols.valid;
+        let [x, y, z] = [
+            cols.dir[0].bits() & v,
+            cols.dir[1].bits() & v,
+            cols.dir[2].bits() & v,
+        ];
+        (x == 0 || x == v) && (y == 0 || y == v) && (z == 0 || z == v)
     }
 }
 
@@ -156,15 +159,18 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
     #[inline(always)]
     fn in_lanes(c: &Columns<V>, bounds: &Bounds) -> Option<Self> {
         let (zero, one, inf) = (V::splat(0.0), V::splat(1.0), V::splat(f32::INFINITY));
-        let inv = c.dir.map(|d| one / d);
-        // `|x| < inf` is `x.is_finite()`; a finite `1/d` excludes zero and
-        // subnormal components.
-        let finite = |x: V| x.abs().lt_mask(inf);
+        // No closures here (`crate::lanes::dispatch`).
+        let inv = [one / c.dir[0], one / c.dir[1], one / c.dir[2]];
         let mut plain = c.tmin.le_mask(c.tmax);
         let (mut enter, mut exit) = (V::splat(f32::NEG_INFINITY), V::splat(f32::INFINITY));
         let mut zmax_of = [zero; 3];
         for a in 0..3 {
-            plain = plain & finite(c.org[a]) & finite(c.dir[a]) & finite(inv[a]);
+            // `|x| < inf` is `x.is_finite()`; a finite `1/d` excludes zero
+            // and subnormal components.
+            plain = plain
+                & c.org[a].abs().lt_mask(inf)
+                & c.dir[a].abs().lt_mask(inf)
+                & inv[a].abs().lt_mask(inf);
             // The slab test, as `CellRay::new`.
             let to_min = V::splat(bounds.min[a]) - c.org[a];
             let to_max = V::splat(bounds.max[a]) - c.org[a];
@@ -180,7 +186,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
         }
         // The dominant axis kz (ties to the lower axis), kx and ky after
         // it, swapped when dir[kz] < 0: `ShearedRay::new`.
-        let d = c.dir.map(V::abs);
+        let d = [c.dir[0].abs(), c.dir[1].abs(), c.dir[2].abs()];
         let (is0, is1_else_2) = (d[0].ge_mask(d[1]) & d[0].ge_mask(d[2]), d[1].ge_mask(d[2]));
         let kz0 = is0.bits();
         let kz1 = !kz0 & is1_else_2.bits();
@@ -193,7 +199,11 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
             [kz1 & keep | kz2 & swap, kz2 & keep | kz0 & swap],
             [kz0, kz1],
         ];
-        let k_is = k_bits.map(|b| b.map(V::mask));
+        let k_is = [
+            [V::mask(k_bits[0][0]), V::mask(k_bits[0][1])],
+            [V::mask(k_bits[1][0]), V::mask(k_bits[1][1])],
+            [V::mask(k_bits[2][0]), V::mask(k_bits[2][1])],
+        ];
         let dk = [pick(&c.dir, &k_is[0]), pick(&c.dir, &k_is[1])];
         let slack = V::splat(SLACK) * pick(&zmax_of, &k_is[2]);
         let t0 = c.tmin.max(enter) - slack;
@@ -213,11 +223,15 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
             tmax: c.tmax,
             k_uniform: None,
             k_is,
-            org_k: core::array::from_fn(|j| pick(&c.org, &k_is[j])),
+            org_k: [
+                pick(&c.org, &k_is[0]),
+                pick(&c.org, &k_is[1]),
+                pick(&c.org, &k_is[2]),
+            ],
             // 1/dir[kz] is the lane's inv[kz], the same division.
             shear: [dk[0] / dkz, dk[1] / dkz, pick(&inv, &k_is[2])],
             k_bits,
-            above_bits: inv.map(|i| i.lt(zero)),
+            above_bits: [inv[0].lt(zero), inv[1].lt(zero), inv[2].lt(zero)],
             t0,
             t1,
             slack,

@@ -34,11 +34,10 @@ mod walk;
 
 use super::TriangleTree;
 use crate::geometry::{Hit, Ray};
-use crate::lanes::Lanes;
+use crate::lanes::{dispatch, Job, Lanes, Level};
 use glam::Vec3;
 use lane_rays::LaneRays;
 use walk::LaneStack;
-use wide::{f32x16, f32x4, f32x8};
 
 /// `N` rays in structure-of-arrays layout, with a valid flag per lane.
 ///
@@ -204,7 +203,7 @@ impl<'a> TriangleTree<'a> {
     #[inline]
     #[must_use]
     pub fn closest_hit4(&self, packet: &Packet4) -> [Hit; 4] {
-        self.closest_packet::<f32x4, 4>(packet)
+        dispatch(ClosestPacket4(self, packet))
     }
 
     /// [`closest_hit4`](TriangleTree::closest_hit4) for 8 lanes.
@@ -214,7 +213,7 @@ impl<'a> TriangleTree<'a> {
     #[inline]
     #[must_use]
     pub fn closest_hit8(&self, packet: &Packet8) -> [Hit; 8] {
-        self.closest_packet::<f32x8, 8>(packet)
+        dispatch(ClosestPacket8(self, packet))
     }
 
     /// [`closest_hit4`](TriangleTree::closest_hit4) for 16 lanes.
@@ -224,7 +223,7 @@ impl<'a> TriangleTree<'a> {
     #[inline]
     #[must_use]
     pub fn closest_hit16(&self, packet: &Packet16) -> [Hit; 16] {
-        self.closest_packet::<f32x16, 16>(packet)
+        dispatch(ClosestPacket16(self, packet))
     }
 
     /// Whether each lane of `packet` hits any triangle, exactly as
@@ -236,7 +235,7 @@ impl<'a> TriangleTree<'a> {
     #[inline]
     #[must_use]
     pub fn any_hit4(&self, packet: &Packet4) -> [bool; 4] {
-        self.any_packet::<f32x4, 4>(packet)
+        dispatch(AnyPacket4(self, packet))
     }
 
     /// [`any_hit4`](TriangleTree::any_hit4) for 8 lanes.
@@ -246,7 +245,7 @@ impl<'a> TriangleTree<'a> {
     #[inline]
     #[must_use]
     pub fn any_hit8(&self, packet: &Packet8) -> [bool; 8] {
-        self.any_packet::<f32x8, 8>(packet)
+        dispatch(AnyPacket8(self, packet))
     }
 
     /// [`any_hit4`](TriangleTree::any_hit4) for 16 lanes.
@@ -256,7 +255,7 @@ impl<'a> TriangleTree<'a> {
     #[inline]
     #[must_use]
     pub fn any_hit16(&self, packet: &Packet16) -> [bool; 16] {
-        self.any_packet::<f32x16, 16>(packet)
+        dispatch(AnyPacket16(self, packet))
     }
 
     /// One packet's closest hits in `V` lanes (the scalar path with the
@@ -356,33 +355,78 @@ impl<'a> TriangleTree<'a> {
         } else {
             width
         };
-        let one = |r: &Ray| Q::one(self, r);
         match width {
             PacketWidth::One => {
                 for (o, r) in out.iter_mut().zip(rays) {
-                    *o = one(r);
+                    *o = Q::one(self, r);
                 }
             }
-            PacketWidth::Four => {
-                in_packets::<f32x4, _, 4>(self, rays, out, |lr, st| Q::lanes(self, lr, st), one);
-            }
+            PacketWidth::Four => dispatch(Slice4::<Q>(self, rays, out)),
             // 16 lanes only where they are one register (`PacketWidth::Sixteen`).
-            PacketWidth::Sixteen if SIXTEEN_LANES => {
-                in_packets::<f32x16, _, 16>(self, rays, out, |lr, st| Q::lanes(self, lr, st), one);
-            }
-            PacketWidth::Eight | PacketWidth::Sixteen => {
-                in_packets::<f32x8, _, 8>(self, rays, out, |lr, st| Q::lanes(self, lr, st), one);
-            }
+            PacketWidth::Sixteen if sixteen_lanes() => dispatch(Slice16::<Q>(self, rays, out)),
+            PacketWidth::Eight | PacketWidth::Sixteen => dispatch(Slice8::<Q>(self, rays, out)),
         }
     }
 }
 
 /// Whether the slice entry points trace `PacketWidth::Sixteen` in 16
-/// lanes: where an `f32x16` is one register (AVX-512). Elsewhere `wide`
-/// splits it into two `f32x8` or four `f32x4` per operation, and 8-lane
-/// packets are as fast or faster (an AVX2 build: 16 lanes 2% slower), so
-/// those slices go 8 at a time.
-const SIXTEEN_LANES: bool = cfg!(target_feature = "avx512f");
+/// lanes: where 16 lanes are one register (AVX-512, built for or
+/// detected). Elsewhere they are two `f32x8` or four `f32x4` per
+/// operation, and 8-lane packets are as fast or faster (an AVX2 build: 16
+/// lanes 2% slower), so those slices go 8 at a time.
+#[inline]
+fn sixteen_lanes() -> bool {
+    cfg!(target_feature = "avx512f") || crate::cpu::isa() == crate::cpu::Isa::Avx512
+}
+
+/// The packet entry points' jobs: one packet in the level's lane type of
+/// its width.
+macro_rules! packet_jobs {
+    ($($job:ident, $n:literal, $x:ident, $out:ty, $method:ident;)*) => {$(
+        #[doc = concat!("`", stringify!($method), "` of one packet of ", $n, ".")]
+        struct $job<'t, 'a>(&'t TriangleTree<'a>, &'t Packet<$n>);
+
+        impl Job for $job<'_, '_> {
+            type Out = $out;
+            #[inline(always)]
+            fn run<L: Level>(self) -> $out {
+                self.0.$method::<L::$x, $n>(self.1)
+            }
+        }
+    )*};
+}
+
+packet_jobs! {
+    ClosestPacket4, 4, X4, [Hit; 4], closest_packet;
+    ClosestPacket8, 8, X8, [Hit; 8], closest_packet;
+    ClosestPacket16, 16, X16, [Hit; 16], closest_packet;
+    AnyPacket4, 4, X4, [bool; 4], any_packet;
+    AnyPacket8, 8, X8, [bool; 8], any_packet;
+    AnyPacket16, 16, X16, [bool; 16], any_packet;
+}
+
+/// The slice entry points' jobs: a slice of rays in packets of a width.
+macro_rules! slice_jobs {
+    ($($job:ident, $n:literal, $x:ident;)*) => {$(
+        #[doc = concat!("A slice of rays in packets of ", $n, ".")]
+        struct $job<'t, 'a, 'o, Q: SliceQuery>(&'t TriangleTree<'a>, &'t [Ray], &'o mut [Q::Out]);
+
+        impl<Q: SliceQuery> Job for $job<'_, '_, '_, Q> {
+            type Out = ();
+            #[inline(always)]
+            fn run<L: Level>(self) {
+                let $job(tree, rays, out) = self;
+                in_packets::<L::$x, Q, $n>(tree, rays, out);
+            }
+        }
+    )*};
+}
+
+slice_jobs! {
+    Slice4, 4, X4;
+    Slice8, 8, X8;
+    Slice16, 16, X16;
+}
 
 /// A query the slice entry points run, as a single ray and over lanes.
 trait SliceQuery {
@@ -436,27 +480,30 @@ impl SliceQuery for AnyHit {
 
 /// Traces `rays` in packets of `N` consecutive rays (the last one partly
 /// inactive) and writes each lane's answer to `out`; packets whose rays
-/// disagree on a direction sign go ray by ray through `one`. Out of line:
-/// one function per width and query, each with its own registers (with a
-/// third width inlined into `slice_with`, the 8-wide walk lost ~5%).
-#[inline(never)]
-fn in_packets<V: Lanes<N>, T: Copy, const N: usize>(
+/// disagree on a direction sign go ray by ray (`Q::one`). Out of line:
+/// one function per width, query and level (its `Job` wrapper), each with
+/// its own registers (with a third width inlined into `slice_with`, the
+/// 8-wide walk lost ~5%).
+#[inline(always)]
+fn in_packets<V: Lanes<N>, Q: SliceQuery, const N: usize>(
     tree: &TriangleTree<'_>,
     rays: &[Ray],
-    out: &mut [T],
-    trace: impl Fn(&LaneRays<V, N>, &mut LaneStack<V>) -> [T; N],
-    one: impl Fn(&Ray) -> T,
+    out: &mut [Q::Out],
 ) {
     let mut stack = LaneStack::new(V::splat(0.0));
     for (rs, os) in rays.chunks(N).zip(out.chunks_mut(N)) {
         let cols = LaneRays::<V, N>::columns(rs);
         if !LaneRays::signs_agree(&cols) {
             for (o, r) in os.iter_mut().zip(rs) {
-                *o = one(r);
+                *o = Q::one(tree, r);
             }
             continue;
         }
-        let answers = trace(&LaneRays::from_rays(&cols, rs, &tree.bounds), &mut stack);
+        let answers = Q::lanes(
+            tree,
+            &LaneRays::from_rays(&cols, rs, &tree.bounds),
+            &mut stack,
+        );
         for (o, a) in os.iter_mut().zip(answers).take(rs.len()) {
             *o = a;
         }

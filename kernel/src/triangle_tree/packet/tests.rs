@@ -209,3 +209,110 @@ fn slices_trace_every_ray_and_stop_at_the_shorter() {
         );
     }
 }
+
+/// Every answer of every entry point, at the level in use: packets of
+/// 4, 8 and 16 (closest and any), the slices at every width, single rays.
+fn answers(tree: &TriangleTree, rays: &[Ray]) -> ([u32; 4], [[u32; 4]; 2], u32) {
+    let mut sum = [0u32; 4];
+    let mut fold = |h: &Hit| {
+        for (s, b) in sum.iter_mut().zip(h.bits()) {
+            *s = s.wrapping_mul(31).wrapping_add(b);
+        }
+    };
+    let mut any = 0u32;
+    let mut fold_any = |o: bool| any = any.wrapping_mul(3).wrapping_add(u32::from(o));
+    for chunk in rays.chunks(16) {
+        let (p4, p8, p16) = (
+            Packet4::from_rays(chunk),
+            Packet8::from_rays(chunk),
+            Packet16::from_rays(chunk),
+        );
+        tree.closest_hit4(&p4).iter().for_each(&mut fold);
+        tree.closest_hit8(&p8).iter().for_each(&mut fold);
+        tree.closest_hit16(&p16).iter().for_each(&mut fold);
+        tree.any_hit4(&p4).into_iter().for_each(&mut fold_any);
+        tree.any_hit8(&p8).into_iter().for_each(&mut fold_any);
+        tree.any_hit16(&p16).into_iter().for_each(&mut fold_any);
+        for r in chunk {
+            fold(&tree.closest_hit(r));
+            fold_any(tree.any_hit(r));
+        }
+    }
+    let mut slices = [[0u32; 4]; 2];
+    let mut hits = [Hit::MISS; 64];
+    let mut occ = [false; 64];
+    for width in [PacketWidth::Four, PacketWidth::Eight, PacketWidth::Sixteen] {
+        for chunk in rays.chunks(64) {
+            tree.closest_hits_with(width, chunk, &mut hits);
+            tree.any_hits_with(width, chunk, &mut occ);
+            for (h, &o) in hits.iter().zip(&occ).take(chunk.len()) {
+                for (s, b) in slices[0].iter_mut().zip(h.bits()) {
+                    *s = s.wrapping_mul(31).wrapping_add(b);
+                }
+                slices[1][0] = slices[1][0].wrapping_mul(3).wrapping_add(u32::from(o));
+            }
+        }
+    }
+    (sum, slices, any)
+}
+
+/// Rays of both kinds (coherent fans, which walk together, and
+/// adversarial ones) for comparing levels.
+fn level_rays(rng: &mut Rng, n: usize) -> impl Iterator<Item = Ray> + '_ {
+    (0..n).map(move |i| {
+        if i % 64 < 32 {
+            let (x, y) = ((i % 8) as f32 / 16.0, (i / 8 % 4) as f32 / 16.0);
+            Ray::new(Vec3::new(0.5, 0.4, 2.0), Vec3::new(x - 0.3, y - 0.2, -1.0))
+        } else {
+            random_ray(rng, i % 2 == 1)
+        }
+    })
+}
+
+#[test]
+fn every_level_answers_alike() {
+    let _level = crate::cpu::tests::LEVEL.lock();
+    let mut rng = Rng(0xC0FF_EE00);
+    let detected = crate::cpu::detected_isa();
+    let mut levels = 0;
+    for _ in 0..8 {
+        let (nodes, prims, tris) = scene(&mut rng);
+        let tree = TriangleTree::from_parts(&nodes, &prims, &tris, BOUNDS).unwrap();
+        let mut rays = [Ray::new(Vec3::ZERO, Vec3::Z); 1024];
+        for (r, new) in rays.iter_mut().zip(level_rays(&mut rng, 1024)) {
+            *r = new;
+        }
+        crate::cpu::set_isa(crate::cpu::Isa::Baseline).unwrap();
+        let want = answers(&tree, &rays);
+        for level in crate::cpu::Isa::ALL.into_iter().filter(|&l| l <= detected) {
+            crate::cpu::set_isa(level).unwrap();
+            assert_eq!(crate::cpu::isa(), level);
+            assert_eq!(answers(&tree, &rays), want, "{level:?}");
+            levels += 1;
+        }
+    }
+    crate::cpu::set_isa(detected).unwrap();
+    assert!(levels >= 8);
+}
+
+/// The dispatch path as Miri runs it (the portable level: Miri does not
+/// model `cpuid`): the entry points through `dispatch`, against single
+/// rays, and a forced level above the detected one refused.
+#[test]
+fn dispatch_runs_the_detected_level() {
+    let mut rng = Rng(5);
+    let (nodes, prims, tris) = scene(&mut rng);
+    let tree = TriangleTree::from_parts(&nodes, &prims, &tris, BOUNDS).unwrap();
+    let rays: [Ray; 24] = core::array::from_fn(|i| level_rays(&mut rng, 64).nth(i * 2).unwrap());
+    let mut hits = [Hit::MISS; 24];
+    tree.closest_hits_with(PacketWidth::Eight, &rays, &mut hits);
+    for (r, h) in rays.iter().zip(&hits) {
+        assert_eq!(h.bits(), tree.closest_hit(r).bits());
+    }
+    let p = Packet16::from_rays(&rays);
+    check_packet(&tree, &p, tree.closest_hit16(&p), tree.any_hit16(&p));
+    if cfg!(miri) {
+        assert_eq!(crate::cpu::detected_isa(), crate::cpu::Isa::Baseline);
+        assert!(crate::cpu::set_isa(crate::cpu::Isa::Avx2).is_err());
+    }
+}

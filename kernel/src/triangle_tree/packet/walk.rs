@@ -138,12 +138,14 @@ impl<V: Lanes<N>, const N: usize> ClosestLanes<'_, '_, V, N> {
         let [v, w, det] = self.vwd;
         // A lane that never won keeps `prim == MISS`.
         let found = V::mask(self.found);
-        let pick = |x: V, miss: f32| V::select(found, x, V::splat(miss));
+        // No closures in the lane code: one is compiled without the
+        // level's target features, and its vector operations become calls
+        // unless LLVM inlines it (`crate::lanes::dispatch`).
         let cols = [
-            pick(self.t, Hit::MISS.t),
+            V::select(found, self.t, V::splat(Hit::MISS.t)),
             self.prim,
-            pick(v / det, Hit::MISS.u),
-            pick(w / det, Hit::MISS.v),
+            V::select(found, v / det, V::splat(Hit::MISS.u)),
+            V::select(found, w / det, V::splat(Hit::MISS.v)),
         ];
         V::records(cols).map(bytemuck::cast)
     }
@@ -180,8 +182,11 @@ impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for ClosestLanes<'_, 'a, V, N
             }
             let m = V::mask(wins);
             self.t = V::select(m, h.t, self.t);
-            self.vwd = [(h.v, self.vwd[0]), (h.w, self.vwd[1]), (h.det, self.vwd[2])]
-                .map(|(new, old)| V::select(m, new, old));
+            self.vwd = [
+                V::select(m, h.v, self.vwd[0]),
+                V::select(m, h.w, self.vwd[1]),
+                V::select(m, h.det, self.vwd[2]),
+            ];
             self.prim = V::select(m, V::splat(f32::from_bits(p)), self.prim);
             self.found |= wins;
         }
@@ -216,8 +221,10 @@ impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for AnyLanes<'_, 'a, V, N> {
             if open == 0 {
                 break;
             }
-            let tri = self.tree.triangles.get(p as usize);
-            if let Some(h) = tri.and_then(|t| self.lr.intersect::<true>(k, t, open, self.lr.tmax)) {
+            let Some(tri) = self.tree.triangles.get(p as usize) else {
+                continue;
+            };
+            if let Some(h) = self.lr.intersect::<true>(k, tri, open, self.lr.tmax) {
                 self.occluded |= h.hit;
                 open &= !h.hit;
             }

@@ -40,8 +40,16 @@ impl Blob {
     /// kept exactly; the kernel then reports the truncation.)
     #[must_use]
     pub fn from_bytes(bytes: &[u8]) -> Blob {
-        let mut words = vec![Line([0; 8]); bytes.len().div_ceil(64)];
-        bytemuck::cast_slice_mut::<Line, u8>(&mut words)[..bytes.len()].copy_from_slice(bytes);
+        // One pass: each line written once (a zeroed vector and a copy
+        // write the whole blob twice).
+        let words = bytes
+            .chunks(64)
+            .map(|c| {
+                let mut line = Line([0; 8]);
+                bytemuck::bytes_of_mut(&mut line)[..c.len()].copy_from_slice(c);
+                line
+            })
+            .collect();
         Blob {
             words,
             len: bytes.len(),

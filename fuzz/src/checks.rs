@@ -12,7 +12,8 @@
 
 use kdray::kernel::wire::{blob_checksum, Header, ENDIAN_CHECK, KIND_TRIANGLES, MAGIC, VERSION};
 use kdray::kernel::{
-    any_hit_brute, closest_hit_brute, Hit, Packet, Packet4, Packet8, Ray, Triangle, TriangleTree,
+    any_hit_brute, closest_hit_brute, Hit, Node, Packet, Packet4, Packet8, Ray, Triangle,
+    TriangleTree,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};

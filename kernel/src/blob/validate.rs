@@ -184,13 +184,7 @@ pub fn walk_treelets(
             len += 1;
         }
     }
-    if next != total {
-        return Err(BlobError::UnreachableNodes {
-            reached: next as u32,
-            total: total as u32,
-        });
-    }
-    Ok(max_depth)
+    all_reached(next, total, max_depth)
 }
 
 /// The layout rule's walk over `total` nodes, for any node type: depth
@@ -256,9 +250,15 @@ pub(crate) fn walk_layout(
         stack[len + 1] = (child, depth + 1);
         len += 2;
     }
-    if next_pair != total {
+    all_reached(next_pair, total, max_depth)
+}
+
+/// The end of a layout walk: the pairs placed must end at the node count
+/// (else some nodes are unreachable); then `max_depth` is the answer.
+fn all_reached(next: usize, total: usize, max_depth: u32) -> Result<u32, BlobError> {
+    if next != total {
         return Err(BlobError::UnreachableNodes {
-            reached: next_pair as u32,
+            reached: next as u32,
             total: total as u32,
         });
     }

@@ -218,7 +218,7 @@ pub(crate) struct Sections<'a> {
 }
 
 impl<'a> Sections<'a> {
-    /// Checks alignment, magic, endianness, version and kind; returns the
+    /// Checks alignment, magic, endianness, kind and version; returns the
     /// header and a reader positioned after it. O(1).
     pub(crate) fn open(bytes: &'a [u8], kind: u32) -> Result<(&'a Header, Self), BlobError> {
         let offset = bytes.as_ptr() as usize % 4;
@@ -244,7 +244,14 @@ impl<'a> Sections<'a> {
                 found: header.endian,
             });
         }
-        if kind == KIND_TRIANGLES && header.kind == kind && header.version == 1 {
+        // Kind before version: the version a blob must have is its kind's.
+        if header.kind != kind {
+            return Err(BlobError::WrongKind {
+                expected: kind,
+                found: header.kind,
+            });
+        }
+        if kind == KIND_TRIANGLES && header.version == 1 {
             return Err(BlobError::OldVersion {
                 found: header.version,
             });
@@ -252,12 +259,6 @@ impl<'a> Sections<'a> {
         if header.version != version_of(kind) {
             return Err(BlobError::UnsupportedVersion {
                 found: header.version,
-            });
-        }
-        if header.kind != kind {
-            return Err(BlobError::WrongKind {
-                expected: kind,
-                found: header.kind,
             });
         }
         Ok((

@@ -1,10 +1,12 @@
-//! Golden blobs: format version 1 keeps loading, embedded the way an
-//! engine embeds it (`include_aligned!`), and answers exactly.
+//! Golden blobs: format version 2 keeps loading, embedded the way an
+//! engine embeds it (`include_aligned!`), and answers exactly; version 1
+//! is refused with an error that says how to rebuild it.
 
-use kdray::kernel::{closest_hit_brute, include_aligned, Aligned, Ray, TriangleTree};
+use kdray::kernel::{closest_hit_brute, include_aligned, Aligned, BlobError, Ray, TriangleTree};
 use kdray::tools::rng::Rng;
 
 static CUBE_V1: &Aligned<[u8]> = include_aligned!("../kernel/golden/cube-v1.kdt");
+static CUBE_V2: &Aligned<[u8]> = include_aligned!("../kernel/golden/cube-v2.kdt");
 
 fn rays() -> Vec<Ray> {
     let mut rng = Rng::new(9);
@@ -19,8 +21,20 @@ fn rays() -> Vec<Ray> {
 }
 
 #[test]
-fn v1_blob_loads_in_place_and_answers_exactly() {
-    let tree = TriangleTree::from_bytes(&CUBE_V1.bytes).expect("golden v1 blob loads");
+fn v1_blob_is_refused_with_how_to_rebuild_it() {
+    for e in [
+        TriangleTree::from_bytes(&CUBE_V1.bytes).unwrap_err(),
+        TriangleTree::from_bytes_unchecked(&CUBE_V1.bytes).unwrap_err(),
+    ] {
+        assert_eq!(e, BlobError::OldVersion { found: 1 });
+        assert!(e.to_string().contains("`kdray build`"), "{e}");
+    }
+}
+
+#[test]
+fn v2_blob_loads_in_place_and_answers_exactly() {
+    assert_eq!(CUBE_V2.bytes.as_ptr() as usize % 64, 0, "a line per pair");
+    let tree = TriangleTree::from_bytes(&CUBE_V2.bytes).expect("golden v2 blob loads");
     assert_eq!(tree.triangles().len(), 14);
     let mut hits = 0;
     for r in rays() {
@@ -34,8 +48,8 @@ fn v1_blob_loads_in_place_and_answers_exactly() {
 
 #[test]
 fn unchecked_loading_gives_the_same_answers() {
-    let checked = TriangleTree::from_bytes(&CUBE_V1.bytes).unwrap();
-    let unchecked = TriangleTree::from_bytes_unchecked(&CUBE_V1.bytes).unwrap();
+    let checked = TriangleTree::from_bytes(&CUBE_V2.bytes).unwrap();
+    let unchecked = TriangleTree::from_bytes_unchecked(&CUBE_V2.bytes).unwrap();
     for r in rays() {
         assert_eq!(
             checked.closest_hit(&r).bits(),

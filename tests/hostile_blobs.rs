@@ -47,6 +47,9 @@ fn leaf(count: u32, word: u32) -> Node {
     Node::leaf(count, word).unwrap()
 }
 
+/// Node 1 of every triangle tree: the padding before the first pair.
+const PAD: Node = Node::EMPTY_LEAF;
+
 fn split(child: u32) -> Node {
     Node::interior(Axis::X, 2.0, child).unwrap()
 }
@@ -142,9 +145,11 @@ fn header_fields_are_checked() {
         err(&with(8, 0xFFFE_0000)),
         BlobError::BadEndianness { found: 0xFFFE_0000 }
     );
+    assert_eq!(err(&with(12, 1)), BlobError::OldVersion { found: 1 });
+    assert!(err(&with(12, 1)).to_string().contains("kdray build"));
     assert_eq!(
-        err(&with(12, 2)),
-        BlobError::UnsupportedVersion { found: 2 }
+        err(&with(12, 3)),
+        BlobError::UnsupportedVersion { found: 3 }
     );
     assert_eq!(
         err(&with(16, 2)),
@@ -181,40 +186,67 @@ fn misaligned_input_is_refused_not_copied() {
 fn crafted_structures_get_the_right_error() {
     // A cycle: the root's children point back at the root.
     assert_eq!(
-        err(&crafted(vec![split(0), leaf(0, 0), leaf(0, 0)], vec![], 1)),
+        err(&crafted(
+            vec![split(0), PAD, leaf(0, 0), leaf(0, 0)],
+            vec![],
+            1
+        )),
         BlobError::BadChild {
             node: 0,
             child: 0,
-            expected: 1
+            expected: 2
         }
     );
     // A child out of range.
     assert!(matches!(
-        err(&crafted(vec![split(1), leaf(0, 0)], vec![], 1)),
+        err(&crafted(vec![split(2), PAD], vec![], 1)),
         BlobError::BadChild { node: 0, .. }
     ));
     // Two parents sharing one pair (a DAG that could blow up a walk).
     assert!(matches!(
         err(&crafted(
-            vec![split(1), split(3), split(3), leaf(0, 0), leaf(0, 0)],
+            vec![split(2), PAD, split(4), split(4), leaf(0, 0), leaf(0, 0)],
             vec![],
             2
         )),
-        BlobError::BadChild { node: 1, .. } | BlobError::BadChild { node: 2, .. }
+        BlobError::BadChild { node: 3, .. }
+    ));
+    // A pair in the wrong place: the root's pair must be at node 2.
+    assert!(matches!(
+        err(&crafted(vec![split(1), PAD, leaf(0, 0)], vec![], 1)),
+        BlobError::BadChild {
+            node: 0,
+            child: 1,
+            expected: 2
+        }
+    ));
+    // The padding node is not the empty leaf.
+    assert!(matches!(
+        err(&crafted(
+            vec![split(2), leaf(1, 0), leaf(0, 0), leaf(0, 0)],
+            vec![],
+            1
+        )),
+        BlobError::BadPadding { .. }
     ));
     // Unreachable nodes after a leaf root.
     assert_eq!(
-        err(&crafted(vec![leaf(0, 0), leaf(0, 0)], vec![], 0)),
+        err(&crafted(
+            vec![leaf(0, 0), PAD, leaf(0, 0), leaf(0, 0)],
+            vec![],
+            0
+        )),
         BlobError::UnreachableNodes {
-            reached: 1,
-            total: 2
+            reached: 2,
+            total: 4
         }
     );
     // A NaN split.
     assert_eq!(
         err(&crafted(
             vec![
-                Node::interior(Axis::Y, f32::NAN, 1).unwrap(),
+                Node::interior(Axis::Y, f32::NAN, 2).unwrap(),
+                PAD,
                 leaf(0, 0),
                 leaf(0, 0)
             ],
@@ -225,7 +257,7 @@ fn crafted_structures_get_the_right_error() {
     );
     // A leaf run past the index array, and a primitive past the triangles.
     assert_eq!(
-        err(&crafted(vec![leaf(3, 1)], vec![0, 1, 2], 0)),
+        err(&crafted(vec![leaf(3, 1), PAD], vec![0, 1, 2], 0)),
         BlobError::LeafRangeOutOfBounds {
             node: 0,
             offset: 1,
@@ -233,18 +265,22 @@ fn crafted_structures_get_the_right_error() {
         }
     );
     assert_eq!(
-        err(&crafted(vec![leaf(1, 40)], vec![], 0)),
+        err(&crafted(vec![leaf(1, 40), PAD], vec![], 0)),
         BlobError::PrimitiveOutOfRange { at: 0, prim: 40 }
     );
     assert_eq!(
-        err(&crafted(vec![leaf(2, 0)], vec![0, 99], 0)),
+        err(&crafted(vec![leaf(2, 0), PAD], vec![0, 99], 0)),
         BlobError::PrimitiveOutOfRange { at: 1, prim: 99 }
     );
     // No nodes at all.
     assert_eq!(err(&crafted(vec![], vec![], 0)), BlobError::NoNodes);
     // A header that lies about the depth.
     assert_eq!(
-        err(&crafted(vec![split(1), leaf(0, 0), leaf(0, 0)], vec![], 5)),
+        err(&crafted(
+            vec![split(2), PAD, leaf(0, 0), leaf(0, 0)],
+            vec![],
+            5
+        )),
         BlobError::BadHeaderField {
             what: "max_depth",
             found: 5
@@ -256,11 +292,12 @@ fn crafted_structures_get_the_right_error() {
 fn depth_over_the_traversal_stack_is_refused() {
     // A chain: each interior node's below child is the next interior node.
     let depth = MAX_DEPTH + 1;
-    // Node 0 is the root; pairs are (1,2), (3,4), ... with below = odd.
-    let mut layout = vec![split(1)];
+    // Node 0 is the root, node 1 padding; the treelet order places the
+    // chain's pairs one after another: (2,3), (4,5), ... with below = even.
+    let mut layout = vec![split(2), PAD];
     for k in 0..depth {
         let below = if k + 1 < depth {
-            split(2 * k + 3)
+            split(2 * k + 4)
         } else {
             leaf(0, 0)
         };
@@ -278,7 +315,7 @@ fn depth_over_the_traversal_stack_is_refused() {
 fn triangles_outside_the_bounds_are_refused() {
     let t = tris();
     let tree = BuiltTree {
-        nodes: vec![leaf(0, 0)],
+        nodes: vec![leaf(0, 0), PAD],
         prims: vec![],
         bounds: Bounds {
             min: [0.0; 3],

@@ -15,7 +15,8 @@
 
 use kdray::kernel::wire::{blob_checksum, Header, ENDIAN_CHECK, KIND_TRIANGLES, MAGIC, VERSION};
 use kdray::kernel::{
-    any_hit_brute, closest_hit_brute, Hit, Packet, Packet4, Packet8, Ray, Triangle, TriangleTree,
+    any_hit_brute, closest_hit_brute, Hit, Node, Packet, Packet4, Packet8, Ray, Triangle,
+    TriangleTree,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
@@ -161,6 +162,11 @@ pub fn blob(data: &[u8]) {
         };
         let mut b = bytemuck::bytes_of(&header).to_vec();
         b.extend_from_slice(body);
+        // Node 1 is the treelet layout's padding: put it in place, or
+        // random bodies would nearly all stop at `BadPadding`.
+        if let Some(pad) = b.get_mut(72..80) {
+            pad.copy_from_slice(bytemuck::bytes_of(&Node::EMPTY_LEAF));
+        }
         // The checksum covers the whole blob, its own field read as zero.
         let sum = Header {
             checksum: blob_checksum(&b),

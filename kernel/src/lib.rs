@@ -29,8 +29,8 @@
 //! use glam::Vec3;
 //! use kdray_kernel::{include_aligned, Ray, TriangleTree};
 //!
-//! // A unit cube with a tilted quad inside (`kdray build cube.obj -o cube-v1.kdt`).
-//! static SCENE: &kdray_kernel::Aligned<[u8]> = include_aligned!("../golden/cube-v1.kdt");
+//! // A unit cube with a tilted quad inside (`kdray build cube.obj -o cube-v2.kdt`).
+//! static SCENE: &kdray_kernel::Aligned<[u8]> = include_aligned!("../golden/cube-v2.kdt");
 //!
 //! let tree = TriangleTree::from_bytes(&SCENE.bytes)?; // validated once, zero-copy
 //! let ray = Ray::new(Vec3::new(0.3, 0.6, -1.0), Vec3::Z);
@@ -107,7 +107,10 @@ mod test_rng;
 mod triangle;
 mod triangle_tree;
 
-pub use blob::{node, wire, BlobError, Node, NodeKind, WriteError, MAX_DEPTH};
+pub use blob::{
+    node, walk_treelets, wire, BlobError, Node, NodeKind, WriteError, FIRST_PAIR, LINE_NODES,
+    MAX_DEPTH,
+};
 pub use cpu::{isa, set_isa, Isa, IsaUnsupported};
 pub use geometry::{ray_is_valid, Axis, Bounds, Hit, Ray, MISS, OCCLUDED};
 /// The `glam` whose `Vec3` the ray constructors take: use it (or this

@@ -2,16 +2,18 @@
 
 use crate::builders::BuiltTree;
 use crate::points::BuiltPoints;
+use kdray_kernel::wire::Line;
 use kdray_kernel::{
     BlobError, PointTreeN, Scalar, Scene, SceneError, Triangle, TriangleTree, WriteError,
 };
 use std::path::Path;
 
-/// Blob bytes held in `u64` words, so they are always 8-byte aligned and
-/// the kernel reads them in place (`f64` point blobs need 8).
+/// Blob bytes held in cache lines, so they are always 64-byte aligned and
+/// the kernel reads them in place (`f64` point blobs need 8; a triangle
+/// tree's child pairs then each sit in one line).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Blob {
-    words: Vec<u64>,
+    words: Vec<Line>,
     len: usize,
 }
 
@@ -40,8 +42,16 @@ impl Blob {
     /// kept exactly; the kernel then reports the truncation.)
     #[must_use]
     pub fn from_bytes(bytes: &[u8]) -> Blob {
-        let mut words = vec![0u64; bytes.len().div_ceil(8)];
-        bytemuck::cast_slice_mut::<u64, u8>(&mut words)[..bytes.len()].copy_from_slice(bytes);
+        // One pass: each line written once (a zeroed vector and a copy
+        // write the whole blob twice).
+        let words = bytes
+            .chunks(64)
+            .map(|c| {
+                let mut line = Line([0; 8]);
+                bytemuck::bytes_of_mut(&mut line)[..c.len()].copy_from_slice(c);
+                line
+            })
+            .collect();
         Blob {
             words,
             len: bytes.len(),
@@ -100,7 +110,7 @@ impl Blob {
 /// [`WriteError`] when a count does not fit the format's 32-bit fields.
 pub fn write_triangle_tree(tree: &BuiltTree, triangles: &[Triangle]) -> Result<Blob, WriteError> {
     let len = TriangleTree::write_parts_len(&tree.nodes, &tree.prims, triangles)?;
-    let mut words = vec![0u64; len.div_ceil(8)];
+    let mut words = vec![Line([0; 8]); len.div_ceil(64)];
     let written = TriangleTree::write_parts_to(
         &tree.nodes,
         &tree.prims,
@@ -133,7 +143,7 @@ pub fn write_point_tree<const D: usize, S: Scalar>(
         &tree.bounds,
     );
     let len = PointTreeN::write_parts_len(n, s, i, c, b)?;
-    let mut words = vec![0u64; len.div_ceil(8)];
+    let mut words = vec![Line([0; 8]); len.div_ceil(64)];
     let out = bytemuck::cast_slice_mut(&mut words);
     let written = PointTreeN::write_parts_to(n, s, i, c, b, tree.max_depth, out)?;
     Ok(Blob {

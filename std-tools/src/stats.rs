@@ -32,6 +32,10 @@ pub struct TreeStats {
     /// area(cell) / area(root) times C_trav per interior node and N * C_isect
     /// per leaf.
     pub sah_cost: f64,
+    /// Cache lines a walk reads from the root to a leaf (each child pair
+    /// read whole, the blob 64-byte aligned), mean over leaves: what the
+    /// treelet layout of blob version 2 cuts.
+    pub mean_leaf_lines: f64,
     /// Blob bytes per triangle (header, nodes, indices and the triangles).
     pub bytes_per_triangle: f64,
     /// Blob bytes.
@@ -53,6 +57,7 @@ pub fn tree_stats(tree: &TriangleTree<'_>, cost: CostModel) -> TreeStats {
         empty_leaves: 0,
         max_depth: tree.max_depth(),
         mean_leaf_depth: 0.0,
+        mean_leaf_lines: 0.0,
         refs_per_triangle: 0.0,
         mean_leaf_size: 0.0,
         sah_cost: 0.0,
@@ -62,13 +67,17 @@ pub fn tree_stats(tree: &TriangleTree<'_>, cost: CostModel) -> TreeStats {
             + tree.triangles().len() * 36,
         bytes_per_triangle: 0.0,
     };
-    let (mut depth_sum, mut refs) = (0u64, 0u64);
+    let (mut depth_sum, mut refs, mut lines_sum) = (0u64, 0u64, 0u64);
+    // The line of node `i`: the 64-byte header is line 0.
+    let line = |i: u32| (kdray_kernel::wire::HEADER_LEN as u64 + 8 * u64::from(i)) / 64;
     let nodes = tree.nodes();
     // Pre-order: cell areas and leaf figures. Children always come after
     // their parent, so one backward pass then costs every subtree.
     let mut area = vec![0.0f64; nodes.len()];
-    let mut todo = vec![(0u32, root, 0u32)];
-    while let Some((i, cell, depth)) = todo.pop() {
+    // (node, cell, depth, lines read so far, the last of them): children
+    // come after their parent, so the lines on a path only increase.
+    let mut todo = vec![(0u32, root, 0u32, 1u64, line(0))];
+    while let Some((i, cell, depth, lines, last)) = todo.pop() {
         let Some(node) = nodes.get(i as usize) else {
             continue;
         };
@@ -76,13 +85,16 @@ pub fn tree_stats(tree: &TriangleTree<'_>, cost: CostModel) -> TreeStats {
         match node.kind() {
             NodeKind::Interior { axis, split, child } => {
                 let (lo, hi) = cell.split(axis.index(), split);
-                todo.push((child, lo, depth + 1));
-                todo.push((child + 1, hi, depth + 1));
+                let (a, b) = (line(child), line(child + 1));
+                let lines = lines + u64::from(a > last) + u64::from(b > a);
+                todo.push((child, lo, depth + 1, lines, b));
+                todo.push((child + 1, hi, depth + 1, lines, b));
             }
             NodeKind::Leaf { count, .. } => {
                 s.leaves += 1;
                 s.empty_leaves += usize::from(count == 0);
                 depth_sum += u64::from(depth);
+                lines_sum += lines;
                 refs += u64::from(count);
             }
         }
@@ -112,6 +124,7 @@ pub fn tree_stats(tree: &TriangleTree<'_>, cost: CostModel) -> TreeStats {
     s.sah_cost = sub.first().copied().unwrap_or(0.0);
     let full = (s.leaves - s.empty_leaves).max(1) as f64;
     s.mean_leaf_depth = depth_sum as f64 / s.leaves.max(1) as f64;
+    s.mean_leaf_lines = lines_sum as f64 / s.leaves.max(1) as f64;
     s.refs_per_triangle = refs as f64 / s.triangles.max(1) as f64;
     s.mean_leaf_size = refs as f64 / full;
     s.bytes_per_triangle = s.bytes as f64 / s.triangles.max(1) as f64;

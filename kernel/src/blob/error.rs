@@ -41,6 +41,18 @@ pub enum BlobError {
         /// The version read.
         found: u32,
     },
+    /// A triangle-tree blob of format version 1 (depth-first node order),
+    /// which this kernel no longer reads: rebuild it with `kdray build`.
+    OldVersion {
+        /// The version read (1).
+        found: u32,
+    },
+    /// Node 1 of a triangle tree, the padding slot that puts every child
+    /// pair in one 16-byte half of a cache line, is not the empty leaf.
+    BadPadding {
+        /// The node's raw bits.
+        found: u64,
+    },
     /// The blob holds another kind of tree.
     WrongKind {
         /// The kind this loader reads (1 triangles, 2 points).
@@ -221,9 +233,18 @@ impl fmt::Display for BlobError {
                 f,
                 "blob endianness check word is {found:#x}, expected 0xfeff (big-endian or corrupt)"
             ),
-            UnsupportedVersion { found } => {
-                write!(f, "blob format version {found} is not supported (this kernel reads 1)")
-            }
+            UnsupportedVersion { found } => write!(
+                f,
+                "blob format version {found} is not supported (this kernel reads triangle trees of version 2, point trees of version 1)"
+            ),
+            OldVersion { found } => write!(
+                f,
+                "blob is a version {found} triangle tree (depth-first node order), which this kernel no longer reads: rebuild it from the mesh with `kdray build`"
+            ),
+            BadPadding { found } => write!(
+                f,
+                "blob node 1 (the padding slot before the first child pair) is {found:#018x}, expected the empty leaf"
+            ),
             WrongKind { expected, found } => write!(
                 f,
                 "blob holds tree kind {found} ({}), expected kind {expected} ({})",

@@ -1,21 +1,34 @@
-//! The node-layout rule every tree blob obeys, and its O(n) check.
+//! The node-layout rules, and their O(n) checks.
 //!
-//! Nodes are in depth-first order with side-by-side child pairs: the root
-//! is node 0, and walking the tree depth-first, below child before above
-//! child, the `k`-th interior node met has its children at `2k + 1` and
-//! `2k + 2`. That one rule, checked with a counter during an O(n) walk on a
-//! fixed stack, proves that every node has exactly one parent, that every
-//! child comes after its parent (no cycles), that no node is unreachable, and
-//! bounds the depth, all without allocating. It is also a good layout: the
-//! below child's subtree follows its pair directly in memory.
+//! **Triangle trees (blob version 2): cache-line treelets.** The root is
+//! node 0, node 1 is padding (the empty leaf), and the child pairs follow
+//! from node 2, so every pair fills one 16-byte quarter of a 64-byte line
+//! (a blob in 64-byte aligned memory; its 64-byte header is one line, so
+//! node `i` lies in line `i / 8`). Pairs are placed in the order of
+//! [`walk_treelets`]: a treelet starts at a node, takes the next free pair
+//! for it and, breadth-first below it, for its descendants until the line
+//! of its first pair is full; the nodes that did not fit start later
+//! treelets, depth-first (last left, first taken). A walk from the root
+//! steps through two to three levels in one line before it needs another.
+//!
+//! The check replays that placement with a counter: the `k`-th pair
+//! placed must be the pair at `2 + 2k`. As in the depth-first rule, that
+//! proves every node has exactly one parent, that every child comes after
+//! its parent (no cycles), that no node is unreachable (the counter ends
+//! at the node count), and bounds the depth, on a fixed stack, without
+//! allocating.
+//!
+//! **Point trees: depth first** ([`walk_layout`]): the `k`-th interior node
+//! met depth-first, below child first, has its children at `2k + 1` and
+//! `2k + 2`.
 
 use super::error::BlobError;
 use super::node::{Node, NodeKind};
 use super::MAX_DEPTH;
 
-/// Walks the tree depth-first on a fixed stack ([`walk_layout`]),
-/// checking the layout rule of the module docs, every split and every
-/// leaf. Returns the max depth.
+/// Walks a triangle tree's treelets on a fixed stack ([`walk_treelets`]),
+/// checking the padding node, the layout rule of the module docs, every
+/// split and every leaf. Returns the max depth.
 pub(crate) fn validate_nodes(
     nodes: &[Node],
     prims: &[u32],
@@ -30,7 +43,14 @@ pub(crate) fn validate_nodes(
             prim: prims[at],
         });
     }
-    walk_layout(nodes.len(), |i| {
+    if let Some(&pad) = nodes.get(1) {
+        if pad != Node::EMPTY_LEAF {
+            return Err(BlobError::BadPadding {
+                found: bytemuck::cast(pad),
+            });
+        }
+    }
+    let mut node = |i: u32| {
         let Some(&node) = nodes.get(i as usize) else {
             // Unreachable: walk_layout range-checks pairs before it visits them.
             return Err(BlobError::NoNodes);
@@ -57,7 +77,114 @@ pub(crate) fn validate_nodes(
                 Ok(None)
             }
         }
+    };
+    walk_treelets(nodes.len(), &mut node, |i, child, slot| {
+        if child == slot {
+            Ok(())
+        } else {
+            Err(BlobError::BadChild {
+                node: i,
+                child,
+                expected: slot,
+            })
+        }
     })
+}
+
+/// Nodes per 64-byte cache line.
+pub const LINE_NODES: usize = 8;
+/// The first child pair's node index (node 1 is padding).
+pub const FIRST_PAIR: usize = 2;
+/// Nodes a treelet may leave in its queue: its root, plus two children
+/// for each of the at most `LINE_NODES / 2` pairs it places.
+const QUEUE: usize = 1 + LINE_NODES;
+/// Pending treelet roots: each treelet leaves at most `LINE_NODES / 2 + 1`
+/// of its queue for later, the pending ones all belong to treelets on the
+/// current chain, and a chain's root depths strictly increase up to
+/// `MAX_DEPTH + 1`.
+const PENDING: usize = (LINE_NODES / 2 + 1) * (MAX_DEPTH as usize + 2) + 1;
+
+/// The treelet placement of the module docs over `total` nodes of any
+/// representation. `node(i)` runs node `i`'s own checks and returns its
+/// below child (`None` for a leaf), in whatever numbering the caller
+/// walks; `place(i, child, slot)` is told that the rule puts the pair of
+/// node `i` (at `child` in that numbering) at node `slot`; the validator
+/// checks `child == slot`, a builder records it. The walk range-checks
+/// `child` before visiting it, so `node` is only called with indices below
+/// `total`; on a valid layout each once: O(n). Returns the max depth.
+///
+/// # Errors
+/// [`BlobError::NoNodes`] for `total < 2`, [`BlobError::BadChild`] for a
+/// pair out of range, [`BlobError::TooDeep`], [`BlobError::UnreachableNodes`]
+/// when the placed pairs do not end at `total`, and whatever `node` or
+/// `place` return.
+pub fn walk_treelets(
+    total: usize,
+    mut node: impl FnMut(u32) -> Result<Option<u32>, BlobError>,
+    mut place: impl FnMut(u32, u32, u32) -> Result<(), BlobError>,
+) -> Result<u32, BlobError> {
+    if total < FIRST_PAIR {
+        return Err(BlobError::NoNodes);
+    }
+    let too_deep = |node, depth| BlobError::TooDeep {
+        node,
+        depth,
+        max: MAX_DEPTH,
+    };
+    // (node, depth) of the treelet roots left for later.
+    let mut pending = [(0u32, 0u32); PENDING];
+    let mut len = 1;
+    let mut next = FIRST_PAIR;
+    let mut max_depth = 0;
+    while len > 0 {
+        len -= 1;
+        let Some(&root) = pending.get(len) else {
+            return Err(too_deep(0, len as u32));
+        };
+        let line = next / LINE_NODES;
+        let mut queue = [(0u32, 0u32); QUEUE];
+        queue[0] = root;
+        let (mut head, mut tail) = (0, 1);
+        // Breadth first while the line of the treelet's first pair has room.
+        while head < tail && next / LINE_NODES == line {
+            let Some(&(i, depth)) = queue.get(head) else {
+                break;
+            };
+            head += 1;
+            if depth > MAX_DEPTH {
+                return Err(too_deep(i, depth));
+            }
+            max_depth = max_depth.max(depth);
+            let Some(child) = node(i)? else {
+                continue;
+            };
+            if child as usize + 1 >= total {
+                return Err(BlobError::BadChild {
+                    node: i,
+                    child,
+                    expected: next as u32,
+                });
+            }
+            place(i, child, next as u32)?;
+            next += 2;
+            let Some(two) = queue.get_mut(tail..tail + 2) else {
+                // Unreachable: a line holds LINE_NODES / 2 pairs.
+                return Err(too_deep(i, depth + 1));
+            };
+            two[0] = (child, depth + 1);
+            two[1] = (child + 1, depth + 1);
+            tail += 2;
+        }
+        // The rest start treelets of their own, the first of them next.
+        for k in (head..tail).rev() {
+            let (Some(&entry), Some(slot)) = (queue.get(k), pending.get_mut(len)) else {
+                return Err(too_deep(root.0, root.1));
+            };
+            *slot = entry;
+            len += 1;
+        }
+    }
+    all_reached(next, total, max_depth)
 }
 
 /// The layout rule's walk over `total` nodes, for any node type: depth
@@ -123,9 +250,15 @@ pub(crate) fn walk_layout(
         stack[len + 1] = (child, depth + 1);
         len += 2;
     }
-    if next_pair != total {
+    all_reached(next_pair, total, max_depth)
+}
+
+/// The end of a layout walk: the pairs placed must end at the node count
+/// (else some nodes are unreachable); then `max_depth` is the answer.
+fn all_reached(next: usize, total: usize, max_depth: u32) -> Result<u32, BlobError> {
+    if next != total {
         return Err(BlobError::UnreachableNodes {
-            reached: next_pair as u32,
+            reached: next as u32,
             total: total as u32,
         });
     }

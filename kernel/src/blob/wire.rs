@@ -4,7 +4,7 @@
 //! offset  size  field
 //!      0     8  magic "kdray\0\0\0"
 //!      8     4  endianness check 0xFEFF (the blob is little-endian)
-//!     12     4  format version (1)
+//!     12     4  format version (2 for triangle trees, 1 for point trees)
 //!     16     4  kind: 1 triangle tree, 3 point tree (2: an older 3-D point layout)
 //!     20     4  max depth of any node (root = 0)
 //!     24     4  node count
@@ -34,8 +34,21 @@ use bytemuck::{Pod, Zeroable};
 pub const MAGIC: [u8; 8] = *b"kdray\0\0\0";
 /// The endianness check word.
 pub const ENDIAN_CHECK: u32 = 0xFEFF;
-/// The format version this kernel writes and reads.
-pub const VERSION: u32 = 1;
+/// The format version of triangle trees this kernel writes and reads
+/// (cache-line treelets, `validate`'s module docs); version 1 (depth-first
+/// order) is refused with [`BlobError::OldVersion`].
+pub const VERSION: u32 = 2;
+/// The format version of point trees (depth-first order).
+pub const POINTS_VERSION: u32 = 1;
+
+/// The version a blob of `kind` must have.
+const fn version_of(kind: u32) -> u32 {
+    if kind == KIND_TRIANGLES {
+        VERSION
+    } else {
+        POINTS_VERSION
+    }
+}
 /// The kind of a triangle tree blob.
 pub const KIND_TRIANGLES: u32 = 1;
 /// The kind of a point tree blob (`points::blob` has its layout; kind 2
@@ -150,7 +163,7 @@ pub(crate) fn write_blob(
     let header = Header {
         magic: MAGIC,
         endian: ENDIAN_CHECK,
-        version: VERSION,
+        version: version_of(kind),
         kind,
         max_depth,
         node_count: nodes?,
@@ -205,7 +218,7 @@ pub(crate) struct Sections<'a> {
 }
 
 impl<'a> Sections<'a> {
-    /// Checks alignment, magic, endianness, version and kind; returns the
+    /// Checks alignment, magic, endianness, kind and version; returns the
     /// header and a reader positioned after it. O(1).
     pub(crate) fn open(bytes: &'a [u8], kind: u32) -> Result<(&'a Header, Self), BlobError> {
         let offset = bytes.as_ptr() as usize % 4;
@@ -231,15 +244,21 @@ impl<'a> Sections<'a> {
                 found: header.endian,
             });
         }
-        if header.version != VERSION {
-            return Err(BlobError::UnsupportedVersion {
-                found: header.version,
-            });
-        }
+        // Kind before version: the version a blob must have is its kind's.
         if header.kind != kind {
             return Err(BlobError::WrongKind {
                 expected: kind,
                 found: header.kind,
+            });
+        }
+        if kind == KIND_TRIANGLES && header.version == 1 {
+            return Err(BlobError::OldVersion {
+                found: header.version,
+            });
+        }
+        if header.version != version_of(kind) {
+            return Err(BlobError::UnsupportedVersion {
+                found: header.version,
             });
         }
         Ok((
@@ -309,7 +328,7 @@ pub(crate) fn verify_checksum(header: &Header, blob: &[u8]) -> Result<(), BlobEr
 ///
 /// ```
 /// static SCENE: &kdray_kernel::Aligned<[u8]> =
-///     kdray_kernel::include_aligned!("../../golden/cube-v1.kdt");
+///     kdray_kernel::include_aligned!("../../golden/cube-v2.kdt");
 /// let tree = kdray_kernel::TriangleTree::from_bytes(&SCENE.bytes)?;
 /// // Read in place: the tree's triangles are the blob's bytes.
 /// assert_eq!(tree.triangles().as_ptr().cast::<u8>(), SCENE.bytes[SCENE.bytes.len() - 14 * 36..].as_ptr());
@@ -317,11 +336,17 @@ pub(crate) fn verify_checksum(header: &Header, blob: &[u8]) -> Result<(), BlobEr
 /// ```
 #[repr(C)]
 pub struct Aligned<B: ?Sized> {
-    /// Zero-sized; raises the alignment of `bytes` to 8.
-    pub _align: [u64; 0],
-    /// The bytes, 8-byte aligned.
+    /// Zero-sized; raises the alignment of `bytes` to a cache line.
+    pub _align: [Line; 0],
+    /// The bytes, 64-byte aligned: every child pair of a triangle tree then
+    /// sits in one cache line.
     pub bytes: B,
 }
+
+/// A 64-byte cache line; only its alignment is used ([`Aligned`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Pod, Zeroable)]
+#[repr(C, align(64))]
+pub struct Line(pub [u64; 8]);
 
 /// `include_bytes!`, aligned for [`TriangleTree::from_bytes`](crate::TriangleTree::from_bytes):
 /// evaluates to a `&'static Aligned<[u8]>`.

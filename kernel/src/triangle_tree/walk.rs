@@ -156,7 +156,7 @@ impl<'a> TriangleTree<'a> {
     /// use glam::Vec3;
     /// use kdray_kernel::{closest_hit_brute, Hit, Ray, TriangleTree};
     /// static CUBE: &kdray_kernel::Aligned<[u8]> =
-    ///     kdray_kernel::include_aligned!("../../golden/cube-v1.kdt");
+    ///     kdray_kernel::include_aligned!("../../golden/cube-v2.kdt");
     /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
     ///
     /// // From below the cube, straight up: the floor at t = 1.
@@ -233,7 +233,7 @@ impl<'a> TriangleTree<'a> {
     /// use glam::Vec3;
     /// use kdray_kernel::{Ray, TriangleTree};
     /// static CUBE: &kdray_kernel::Aligned<[u8]> =
-    ///     kdray_kernel::include_aligned!("../../golden/cube-v1.kdt");
+    ///     kdray_kernel::include_aligned!("../../golden/cube-v2.kdt");
     /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
     ///
     /// // A shadow ray from a point inside the cube to a light outside it:
@@ -470,10 +470,13 @@ mod tests {
         let leaf = |count, at| Node::leaf(count, at).unwrap();
         // x ranges: 0 [.1, .6], 1 [.3, .9], 2 [.5, .5], 3 [.05, .95].
         let prims = [0, 3, 0, 1, 2, 3, 1, 3];
+        // Treelet order: root, padding, the root's pair, then both of
+        // its children's pairs in the same line.
         let nodes = [
-            split(0.5, 1),
-            split(0.25, 3),
-            split(0.75, 5),
+            split(0.5, 2),
+            Node::EMPTY_LEAF,
+            split(0.25, 4),
+            split(0.75, 6),
             leaf(2, 0),
             leaf(4, 2),
             leaf(4, 2),

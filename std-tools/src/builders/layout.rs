@@ -1,8 +1,11 @@
-//! From a builder's tree to the kernel's layout: nodes depth-first, below
+//! From a builder's tree to the kernel's layout: first depth-first, below
 //! child before above, the `k`-th interior node met with its children at
-//! `2k + 1` and `2k + 2` (the rule `TriangleTree::from_parts` checks).
+//! `2k + 1` and `2k + 2` (both halves laid out at once, in parallel), then
+//! reordered into the cache-line treelets of blob version 2
+//! ([`kdray_kernel::walk_treelets`], the rule `TriangleTree::from_parts`
+//! checks).
 
-use kdray_kernel::{Axis, Bounds, Node};
+use kdray_kernel::{walk_treelets, Axis, Bounds, Node, NodeKind};
 
 use super::BuiltTree;
 
@@ -110,11 +113,39 @@ pub fn flatten(root: BuildNode, bounds: Bounds) -> BuiltTree {
     };
     let max_depth = lay_out(root, place, &mut slot[0], below_root, &mut prims);
     BuiltTree {
-        nodes,
+        nodes: into_treelets(&nodes),
         prims,
         bounds,
         max_depth,
     }
+}
+
+/// The depth-first `nodes` in the kernel's treelet order: the root, the
+/// padding node, then every pair where [`walk_treelets`] places it, each
+/// interior node's child index renumbered.
+fn into_treelets(nodes: &[Node]) -> Vec<Node> {
+    // Where each depth-first node goes.
+    let mut to = vec![0u32; nodes.len()];
+    let below = |i: u32| match nodes.get(i as usize).map(|n| n.kind()) {
+        Some(NodeKind::Interior { child, .. }) => Ok(Some(child)),
+        _ => Ok(None),
+    };
+    let placed = walk_treelets(nodes.len() + 1, below, |_, child, slot| {
+        to[child as usize] = slot;
+        to[child as usize + 1] = slot + 1;
+        Ok(())
+    });
+    debug_assert!(placed.is_ok(), "the depth-first layout is a tree");
+    let mut out = vec![Node::EMPTY_LEAF; nodes.len() + 1];
+    for (n, &at) in nodes.iter().zip(&to) {
+        out[at as usize] = match n.kind() {
+            NodeKind::Interior { axis, split, child } => {
+                Node::interior(axis, split, to[child as usize]).unwrap_or(Node::EMPTY_LEAF)
+            }
+            NodeKind::Leaf { .. } => *n,
+        };
+    }
+    out
 }
 
 /// Where a subtree goes: the index its root takes among the interior nodes

@@ -48,10 +48,15 @@ pub struct BuildParams {
     /// Cost of one ray/triangle test (C_isect). Default 0.5: against 1.5,
     /// a tree of a third of the nodes that traces camera rays as fast and
     /// random rays faster (the smaller tree misses the cache less); lower
-    /// still (0.25) trades more triangle tests for little gain.
+    /// still (0.25) trades more triangle tests for little gain. Tried 0.35
+    /// for fewer references per triangle (bunny 3.31 -> 2.82): shadow rays
+    /// 4% more instructions and 9% more L1 misses, from 24.2 triangle
+    /// tests per ray instead of 19.4.
     pub intersection_cost: f32,
     /// Fraction of the cost forgiven when one side of a split is empty
-    /// (the lecture's "big empty cells"). Default 0.2.
+    /// (the lecture's "big empty cells"). Default 0.2. Tried 0: bunny
+    /// shadow rays 10% fewer nodes but 15% more triangle tests, 1% more
+    /// instructions and 6% more L1 misses.
     pub empty_bonus: f32,
     /// Deepest leaf allowed; `None` picks `8 + 1.3 log2(n)` (PBRT's rule),
     /// at most [`MAX_DEPTH`], which also caps any value given.

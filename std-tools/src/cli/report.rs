@@ -12,6 +12,7 @@ pub(crate) fn stats_json(j: JsonObject, s: &TreeStats) -> JsonObject {
         .num("empty_leaves", s.empty_leaves as f64)
         .num("max_depth", f64::from(s.max_depth))
         .num("mean_leaf_depth", s.mean_leaf_depth)
+        .num("mean_leaf_lines", s.mean_leaf_lines)
         .num("refs_per_triangle", s.refs_per_triangle)
         .num("mean_leaf_size", s.mean_leaf_size)
         .num("sah_cost", s.sah_cost)
@@ -32,6 +33,10 @@ pub(crate) fn print_stats(s: &TreeStats) {
         "  depth              max {}, mean leaf {:.1}",
         s.max_depth,
         s.mean_leaf_depth
+    );
+    say!(
+        "  lines to a leaf    {:.2} (64-byte lines read root to leaf, mean)",
+        s.mean_leaf_lines
     );
     say!("  refs per triangle  {:.2}", s.refs_per_triangle);
     say!("  tris per full leaf {:.2}", s.mean_leaf_size);

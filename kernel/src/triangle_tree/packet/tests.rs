@@ -11,7 +11,7 @@ use crate::test_rng::Rng;
 
 const SPLITS: [(Axis, f32); 3] = [(Axis::X, 0.5), (Axis::Z, 0.25), (Axis::Y, 0.5)];
 
-fn scene(rng: &mut Rng) -> ([Node; 7], [u32; 64], [Triangle; 16]) {
+fn scene(rng: &mut Rng) -> ([Node; 8], [u32; 64], [Triangle; 16]) {
     // Triangles on a coarse grid (shared edges and vertices, hits on
     // split planes) plus a few random ones.
     let mut tris = [Triangle { v: [[0.0; 3]; 3] }; 16];
@@ -31,9 +31,10 @@ fn scene(rng: &mut Rng) -> ([Node; 7], [u32; 64], [Triangle; 16]) {
     let i = |a, s, c| Node::interior(a, s, c).unwrap();
     let leaf = |k: u32| Node::leaf(16, 16 * k).unwrap();
     let nodes = [
-        i(SPLITS[0].0, SPLITS[0].1, 1),
-        i(SPLITS[1].0, SPLITS[1].1, 3),
-        i(SPLITS[2].0, SPLITS[2].1, 5),
+        i(SPLITS[0].0, SPLITS[0].1, 2),
+        Node::EMPTY_LEAF,
+        i(SPLITS[1].0, SPLITS[1].1, 4),
+        i(SPLITS[2].0, SPLITS[2].1, 6),
         leaf(0),
         leaf(1),
         leaf(2),

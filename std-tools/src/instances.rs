@@ -176,7 +176,11 @@ pub fn build_top_level_with(boxes: &[Bounds], p: &TopParams) -> BuiltTree {
         todo.push((child + 1, start, ca, depth + 1));
         todo.push((child, start + n_above, cb, depth + 1));
     }
-    out
+    // Laid out depth-first above; blobs hold the treelet order.
+    BuiltTree {
+        nodes: builders::layout::into_treelets(&out.nodes),
+        ..out
+    }
 }
 
 /// A leaf of `refs` (in index order, each once: the partition keeps

@@ -41,12 +41,14 @@ pub const VERSION: u32 = 2;
 /// The format version of point trees (depth-first order).
 pub const POINTS_VERSION: u32 = 1;
 
-/// The version a blob of `kind` must have.
+/// The version a blob of `kind` must have: point trees keep version 1;
+/// triangle trees and scenes (whose top level and meshes are in treelets)
+/// are version 2.
 const fn version_of(kind: u32) -> u32 {
-    if kind == KIND_TRIANGLES {
-        VERSION
-    } else {
+    if kind == KIND_POINTS {
         POINTS_VERSION
+    } else {
+        VERSION
     }
 }
 /// The kind of a triangle tree blob.

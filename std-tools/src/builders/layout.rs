@@ -122,8 +122,10 @@ pub fn flatten(root: BuildNode, bounds: Bounds) -> BuiltTree {
 
 /// The depth-first `nodes` in the kernel's treelet order: the root, the
 /// padding node, then every pair where [`walk_treelets`] places it, each
-/// interior node's child index renumbered.
-fn into_treelets(nodes: &[Node]) -> Vec<Node> {
+/// interior node's child index renumbered (the scene's top level uses it
+/// too).
+#[must_use]
+pub fn into_treelets(nodes: &[Node]) -> Vec<Node> {
     // Where each depth-first node goes.
     let mut to = vec![0u32; nodes.len()];
     let below = |i: u32| match nodes.get(i as usize).map(|n| n.kind()) {

@@ -433,10 +433,11 @@ fn hit_inside_box(t: f64, p: &[[f64; 3]; 3], o: &[f64; 3], d: &[f64; 3]) -> bool
 }
 
 /// [`plane_t`]'s `t` kept within the ray's interval through the triangle
-/// `p`'s box widened by [`BOX_MARGIN`] (NaN when the ray misses it). Out
-/// of line: taken only for hit points near or outside the box.
-#[inline(never)]
-#[cold]
+/// `p`'s box widened by [`BOX_MARGIN`] (NaN when the ray misses it).
+/// Taken only for hit points near or outside the box. Inlined: tried out
+/// of line (cold), its frame stacked on [`plane_t`]'s on soft-float
+/// targets: 1,688 B of stack for a firmware ray instead of 1,528 B.
+#[inline(always)]
 fn box_clamp(t: f64, p: &[[f64; 3]; 3], o: &[f64; 3], d: &[f64; 3]) -> f32 {
     let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
     for a in 0..3 {

@@ -235,7 +235,7 @@ impl fmt::Display for BlobError {
             ),
             UnsupportedVersion { found } => write!(
                 f,
-                "blob format version {found} is not supported (this kernel reads triangle trees of version 2, point trees of version 1)"
+                "blob format version {found} is not supported (this kernel reads triangle trees and scenes of version 2, point trees of version 1)"
             ),
             OldVersion { found } => write!(
                 f,

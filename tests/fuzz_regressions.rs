@@ -112,3 +112,17 @@ fn tree_vs_brute_sah_hit_at_t0_off_the_dominant_axis_on_huge_sliver() {
         "../fuzz/regressions/tree_vs_brute/sah_hit_at_t0_off_the_dominant_axis_on_huge_sliver"
     ));
 }
+
+/// Found by `tree_vs_brute` in a CI run: a triangle reaching y = 2.0e14;
+/// the ray from y = -10, outside the scene (y from -8) and heading away.
+/// The plane's `t` was kept within the triangle's box widened by a margin
+/// relative to the box's whole span (7.7e8 here), which took in the
+/// origin: brute force hit at t = 0, where the tree's walk never goes.
+/// Each face is now widened by its own magnitude and the origin's, and the
+/// walk clips to the scene box widened by twice that.
+#[test]
+fn tree_vs_brute_sah_hit_at_t0_outside_the_scene_in_a_huge_triangles_margin() {
+    checks::tree_vs_brute(include_bytes!(
+        "../fuzz/regressions/tree_vs_brute/sah_hit_at_t0_outside_the_scene_in_a_huge_triangles_margin"
+    ));
+}

@@ -421,8 +421,7 @@ fn hit_inside_box(t: f64, p: &[[f64; 3]; 3], o: &[f64; 3], d: &[f64; 3]) -> bool
     for a in 0..3 {
         let lo = min(min(p[0][a], p[1][a]), p[2][a]);
         let hi = max(max(p[0][a], p[1][a]), p[2][a]);
-        let margin = BOX_MARGIN * (lo.abs() + hi.abs() + o[a].abs());
-        let (lo, hi) = (lo - margin, hi + margin);
+        let (lo, hi) = widen(lo, hi, o[a]);
         let x = o[a] + t * d[a];
         let guard = BOX_GUARD * (lo.abs() + hi.abs() + o[a].abs() + x.abs());
         // Strict: a flat box (`lo == hi`, no margin at the origin) is left
@@ -445,8 +444,7 @@ fn box_clamp(t: f64, p: &[[f64; 3]; 3], o: &[f64; 3], d: &[f64; 3]) -> f32 {
             p[0][a].min(p[1][a]).min(p[2][a]),
             p[0][a].max(p[1][a]).max(p[2][a]),
         );
-        let margin = BOX_MARGIN * (bmin.abs() + bmax.abs() + o[a].abs());
-        let (bmin, bmax) = (bmin - margin, bmax + margin);
+        let (bmin, bmax) = widen(bmin, bmax, o[a]);
         if d[a] == 0.0 {
             if o[a] < bmin || o[a] > bmax {
                 return f32::NAN;
@@ -470,6 +468,23 @@ fn box_clamp(t: f64, p: &[[f64; 3]; 3], o: &[f64; 3], d: &[f64; 3]) -> f32 {
         t
     };
     t as f32
+}
+
+/// A triangle box's extent `[lo, hi]` on one axis widened by
+/// [`BOX_MARGIN`] of each face's own magnitude and the origin
+/// coordinate's `o`. Moving a face `x` to `x ∓ m (|x| + |o|)` keeps the
+/// faces in order (`x - m|x|` grows with `x`), so a triangle's widened box
+/// stays inside the scene's box widened the same way, which the walk's
+/// root clip covers ([`crate::triangle_tree`]'s `ROOT_MARGIN`). (A margin
+/// of the whole span `|lo| + |hi|` let a triangle reaching y = 2e14 take
+/// in an origin outside the scene at y = -10.)
+#[inline(always)]
+pub(crate) fn widen(lo: f64, hi: f64, o: f64) -> (f64, f64) {
+    let o = o.abs();
+    (
+        lo - BOX_MARGIN * (lo.abs() + o),
+        hi + BOX_MARGIN * (hi.abs() + o),
+    )
 }
 
 /// How clearly inside its widened box [`plane_t`]'s hit point must lie to
@@ -673,12 +688,8 @@ mod tests {
                 p[0][a].min(p[1][a]).min(p[2][a]),
                 p[0][a].max(p[1][a]).max(p[2][a]),
             );
-            let margin = BOX_MARGIN * (lo.abs() + hi.abs() + o[a].abs());
-            let face = if rng.f() < 0.5 {
-                lo - margin
-            } else {
-                hi + margin
-            };
+            let (lo, hi) = widen(lo, hi, o[a]);
+            let face = if rng.f() < 0.5 { lo } else { hi };
             let k = 14 + (rng.f() * 47.0) as i32;
             let off = (f64::from(rng.f()) * 2.0 - 1.0) * face.abs().max(scale) * 2f64.powi(-k);
             let t = (face + off - o[a]) / d[a];

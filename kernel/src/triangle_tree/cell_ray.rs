@@ -23,6 +23,27 @@ use crate::triangle::ShearedRay;
 /// (2^-18 ≈ 3.8e-6, about 32 ulps of the largest `t` in the scene).
 pub(crate) const SLACK: f32 = 1.0 / 262_144.0;
 
+/// How far the root cell reaches past each face of the scene bounds,
+/// relative to the face's magnitude and the origin coordinate's (2^-17):
+/// twice the margin by which the triangle test takes a hit point outside
+/// its triangle's box (`triangle::widen`), so a hit brute force accepts
+/// is never clipped away with the ray, whatever the `f32` rounding here.
+pub(crate) const ROOT_MARGIN: f32 = 1.0 / 131_072.0;
+
+/// The scene bounds widened by [`ROOT_MARGIN`] for a ray from `org`: the
+/// root cell the walk clips a ray to.
+#[inline(always)]
+fn root_cell(bounds: &Bounds, org: &[f32; 3]) -> Bounds {
+    Bounds {
+        min: core::array::from_fn(|a| {
+            bounds.min[a] - ROOT_MARGIN * (bounds.min[a].abs() + org[a].abs())
+        }),
+        max: core::array::from_fn(|a| {
+            bounds.max[a] + ROOT_MARGIN * (bounds.max[a].abs() + org[a].abs())
+        }),
+    }
+}
+
 /// A ray clipped to the scene bounds, ready for the traversal loop.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct CellRay {
@@ -45,12 +66,14 @@ pub(crate) struct CellRay {
 }
 
 impl CellRay {
-    /// Clips `ray` to `bounds` (slab test), widening by the slack.
+    /// Clips `ray` to `bounds` widened to the root cell (slab test),
+    /// widening the interval by the slack.
     /// `None` when the ray misses the box or is invalid.
     #[inline(always)]
     #[must_use]
     pub(crate) fn new(ray: &Ray, sr: &ShearedRay, bounds: &Bounds) -> Option<CellRay> {
         let org = ray.origin;
+        let bounds = &root_cell(bounds, &org);
         // Whole arrays, not element stores in the loop: those were spilled
         // one lane at a time and reloaded whole, a store-forwarding stall
         // per ray (measured: ~4% of a camera-ray trace).

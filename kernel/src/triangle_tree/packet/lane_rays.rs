@@ -15,7 +15,7 @@
 //! lane `min`/`max` pick either of two equal operands): the walk only
 //! compares them, where `-0 == +0`.
 
-use super::super::cell_ray::{CellRay, SLACK};
+use super::super::cell_ray::{CellRay, ROOT_MARGIN, SLACK};
 use super::Packet;
 use crate::blob::Node;
 use crate::geometry::{Axis, Bounds, Ray};
@@ -171,9 +171,11 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
                 & c.org[a].abs().lt_mask(inf)
                 & c.dir[a].abs().lt_mask(inf)
                 & inv[a].abs().lt_mask(inf);
-            // The slab test, as `CellRay::new`.
-            let to_min = V::splat(bounds.min[a]) - c.org[a];
-            let to_max = V::splat(bounds.max[a]) - c.org[a];
+            // The slab test over the root cell, as `CellRay::new`.
+            let (lo, hi) = (V::splat(bounds.min[a]), V::splat(bounds.max[a]));
+            let (margin, oa) = (V::splat(ROOT_MARGIN), c.org[a].abs());
+            let to_min = (lo - margin * (lo.abs() + oa)) - c.org[a];
+            let to_max = (hi + margin * (hi.abs() + oa)) - c.org[a];
             let ta = to_min * inv[a];
             let tb = to_max * inv[a];
             plain = plain & ta.eq_mask(ta) & tb.eq_mask(tb);

@@ -475,7 +475,7 @@ fn box_clamp(t: f64, p: &[[f64; 3]; 3], o: &[f64; 3], d: &[f64; 3]) -> f32 {
 /// coordinate's `o`. Moving a face `x` to `x ∓ m (|x| + |o|)` keeps the
 /// faces in order (`x - m|x|` grows with `x`), so a triangle's widened box
 /// stays inside the scene's box widened the same way, which the walk's
-/// root clip covers ([`crate::triangle_tree`]'s `ROOT_MARGIN`). (A margin
+/// root clip covers (the triangle tree's `ROOT_MARGIN`). (A margin
 /// of the whole span `|lo| + |hi|` let a triangle reaching y = 2e14 take
 /// in an origin outside the scene at y = -10.)
 #[inline(always)]

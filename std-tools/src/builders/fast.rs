@@ -54,8 +54,10 @@ pub const MAX_BINS: usize = 64;
 
 /// One box of a cell: its bounds and its index in one array of 32 bytes
 /// (`lo` at 0-2, the index's bits at 3, `hi` at 4-6), so a copy is two
-/// 16-byte moves. (Tried: a struct of fields, copied field by field: the
-/// partition took 33 instructions per box.)
+/// 16-byte moves. The index's bits ride in an `f32` slot, only ever
+/// copied, never computed with (moves keep every bit). (Tried: a struct
+/// of fields, copied field by field: the partition took 33 instructions
+/// per box; `u32` slots read as floats: 4% more instructions.)
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(32))]
 struct Item([f32; 8]);

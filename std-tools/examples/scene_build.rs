@@ -25,7 +25,7 @@ fn main() {
     let (meshes, instances) = generated_level(n / 2, (n as f32).sqrt() * 2.0, 1);
     let bounds = mesh_bounds(&meshes).expect("the generated meshes build");
     let (mut best_boxes, mut best_top) = (f64::INFINITY, f64::INFINITY);
-    let (mut nodes, mut refs, mut print) = (0, 0, 0u64);
+    let (mut nodes, mut refs, mut print, mut cost) = (0, 0, 0u64, 0.0);
     for _ in 0..50 {
         let t = Instant::now();
         let boxes = world_boxes(&bounds, &instances);
@@ -34,6 +34,7 @@ fn main() {
         let t_all = t.elapsed().as_secs_f64();
         best_boxes = best_boxes.min(t_boxes);
         best_top = best_top.min(t_all - t_boxes);
+        cost = kdray_tools::stats::sah_cost(&top.nodes, &top.bounds, p.cost);
         nodes = top.nodes.len();
         refs = top.prims.len();
         // FNV-1a over the laid-out tree: equal prints, the same tree.
@@ -44,7 +45,7 @@ fn main() {
             });
     }
     println!(
-        "{} instances: world boxes {:.3} ms, top level {:.3} ms ({nodes} nodes, {refs} listed, print {print:016x}), best of 50, {p:?}",
+        "{} instances: world boxes {:.3} ms, top level {:.3} ms ({nodes} nodes, {refs} listed, SAH cost {cost:.2}, print {print:016x}), best of 50, {p:?}",
         instances.len(),
         best_boxes * 1e3,
         best_top * 1e3

@@ -3,11 +3,44 @@
 //! instance's triangles in world space, in instance order) and a
 //! generated level.
 //!
-//! An engine updates a scene per frame without touching static meshes:
-//! moved instances get new transforms ([`Instance::new`]), the world boxes
-//! are recomputed from each mesh's bounds ([`world_boxes`]), and only the
-//! top level is rebuilt ([`build_top_level`]); mesh trees are shared and
-//! kept. A deforming mesh rebuilds its own tree.
+//! # Updating a scene every frame
+//!
+//! Static meshes are never rebuilt: their trees (and bounds) are kept and
+//! shared by every instance. Per frame an engine
+//! 1. gives each moved instance its new transform ([`Instance::new`]
+//!    computes the inverse once);
+//! 2. recomputes the world boxes from the kept mesh bounds
+//!    ([`world_boxes`]) and rebuilds only the top level over them
+//!    ([`build_top_level`], [`builders::fast`]; docs/results.md `## Scenes`
+//!    has its time for 10,000 instances);
+//! 3. rebuilds the tree of each deforming mesh with
+//!    [`BuilderKind::Fast`] (and writes its blob; its bounds change too);
+//! 4. assembles the scene from the trees, the instances and the new top
+//!    level ([`Scene::from_parts`], which validates them; no copy).
+//!
+//! ```
+//! use kdray_tools::blob::Blob;
+//! use kdray_tools::builders::{BuildParams, BuilderKind};
+//! use kdray_tools::instances::{build_scene, build_top_level, generated_level, placement, world_boxes};
+//! use kdray_kernel::{glam::Vec3, Instance, Ray, Scene};
+//!
+//! let (meshes, instances) = generated_level(20, 10.0, 1);
+//! let parts = build_scene(&meshes, instances, BuilderKind::Sah, &BuildParams::default())?;
+//! // The mesh trees, validated once and kept.
+//! let trees = parts.meshes.iter().map(Blob::tree).collect::<Result<Vec<_>, _>>()?;
+//! let bounds: Vec<_> = trees.iter().map(|t| t.bounds()).collect();
+//! let mut instances = parts.instances.clone();
+//! for frame in 0..3 {
+//!     // Instance 0 moves; no mesh tree is touched.
+//!     let m = placement([0.0, 1.0, 0.0], frame as f32 * 0.1, [1.0; 3], [frame as f32, 0.0, 0.0]);
+//!     instances[0] = Instance::new(0, m, 0, u32::MAX).expect("invertible");
+//!     let top = build_top_level(&world_boxes(&bounds, &instances));
+//!     let scene = Scene::from_parts(&trees, &instances, &top.nodes, &top.prims, top.bounds)?;
+//!     let ray = Ray::new(Vec3::new(frame as f32, 0.5, -20.0), Vec3::Z);
+//!     let _hit = scene.closest_hit(&ray, u32::MAX);
+//! }
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 use crate::blob::{write_triangle_tree, Blob};
 use crate::builders::{self, BuildError, BuildParams, BuilderKind, BuiltTree, CostModel};
@@ -16,8 +49,8 @@ use kdray_kernel::wire::{
     blob_checksum, Header, CHECKSUM_OFFSET, ENDIAN_CHECK, HEADER_LEN, MAGIC, VERSION,
 };
 use kdray_kernel::{
-    Axis, Bounds, Hit, Instance, Node, Ray, Scene, Triangle, TriangleTree, WriteError, KIND_SCENE,
-    MAX_DEPTH, MESH_ALIGN,
+    Bounds, Hit, Instance, Ray, Scene, Triangle, TriangleTree, WriteError, KIND_SCENE, MAX_DEPTH,
+    MESH_ALIGN,
 };
 
 /// The top-level builder's parameters ([`TopParams::DEFAULT`]).
@@ -25,7 +58,8 @@ use kdray_kernel::{
 pub struct TopParams {
     /// The SAH's constants: a traversal step against tracing one instance.
     pub cost: CostModel,
-    /// Equal-width bins per axis the SAH is evaluated at (at most 64).
+    /// Equal-width bins on a cell's longest axis the SAH is evaluated at
+    /// (2 to 64).
     pub bins: usize,
     /// Cells of at most this many instances become leaves.
     pub leaf_size: usize,
@@ -83,189 +117,35 @@ pub fn build_top_level(boxes: &[Bounds]) -> BuiltTree {
 
 /// The top-level tree over instance world boxes: SAH at `p.bins` bin
 /// boundaries on each cell's longest axis, each box listed in every leaf
-/// whose cell it overlaps. Boxes that are empty (an instance of a missing
-/// mesh) are left out. One thread, no allocation per cell: the cells'
-/// instance indices live in one stack-like scratch buffer and the nodes
-/// are written straight into the kernel's layout (docs/results.md,
-/// `## Scenes`, has its time for 10,000 instances).
+/// whose cell it overlaps ([`builders::fast`], the builder of deforming
+/// meshes). Boxes that are empty (an instance of a missing mesh) are left
+/// out. One thread, no allocation per cell, laid out in the blob's
+/// treelet order (docs/results.md, `## Scenes`, has its time for 10,000
+/// instances).
 #[must_use]
 pub fn build_top_level_with(boxes: &[Bounds], p: &TopParams) -> BuiltTree {
     let bounds = boxes
         .iter()
         .filter(|b| b.min[0] <= b.max[0])
         .fold(Bounds::EMPTY, |a, b| a.union(b));
-    let bounds = if bounds.min[0] <= bounds.max[0] {
-        bounds
+    let (bounds, n) = if bounds.min[0] <= bounds.max[0] {
+        (
+            bounds,
+            boxes.iter().filter(|b| b.min[0] <= b.max[0]).count(),
+        )
     } else {
-        Bounds::ZERO
+        (Bounds::ZERO, 0)
     };
-    // Boxes are not clipped to their cells: a cell holds only boxes that
-    // overlap it, so a box's side of a plane inside the cell and its bins
-    // (clamped to the cell's) are those of its clipped box.
-    let mut refs: Vec<u32> = (0..boxes.len() as u32)
-        .filter(|&i| boxes[i as usize].min[0] <= boxes[i as usize].max[0])
-        .collect();
-    let log2 = usize::BITS - refs.len().leading_zeros();
-    let limit = (p.extra_depth + log2).min(MAX_DEPTH);
-    let p = TopParams {
-        bins: p.bins.clamp(2, MAX_BINS),
-        ..*p
+    let log2 = usize::BITS - n.leading_zeros();
+    let fast = builders::fast::FastParams {
+        cost: p.cost,
+        bins: p.bins,
+        leaf_size: p.leaf_size,
+        depth: (p.extra_depth + log2).min(MAX_DEPTH),
+        shrink_bins: false,
     };
-    let mut out = BuiltTree {
-        nodes: vec![Node::EMPTY_LEAF],
-        prims: Vec::with_capacity(refs.len() * 5),
-        bounds,
-        max_depth: 0,
-    };
-    let mut interiors = 0usize;
-    // Cells still to build: (slot, start of its references in `refs`,
-    // cell, depth). The top cell's references run to the end of `refs`;
-    // the cells beneath it end where the next one starts.
-    let mut todo = vec![(0usize, 0usize, bounds, 0u32)];
-    while let Some((slot, start, cell, depth)) = todo.pop() {
-        out.max_depth = out.max_depth.max(depth);
-        let n = refs.len() - start;
-        let split = if n <= p.leaf_size.max(1) || depth >= limit {
-            None
-        } else {
-            best_plane(boxes, &refs[start..], &cell, &p)
-                .filter(|&(_, _, cost)| cost < p.cost.leaf(n))
-        };
-        let Some((axis, plane, _)) = split else {
-            out.nodes[slot] = leaf(&refs[start..], &mut out.prims);
-            refs.truncate(start);
-            continue;
-        };
-        // Below when the box starts before the plane, above when it ends
-        // after it or starts on it: every point of the box in a cell that
-        // holds it (cells are closed). The above side is compacted in
-        // place, the below side appended and moved down beside it (it is
-        // built first, as the layout numbers interior nodes depth-first);
-        // both stay in index order, so leaves need no sort.
-        // Branch-free: each reference is written to both sides' next slot
-        // and kept where its side holds it (the planes' sides are
-        // unpredictable).
-        let end = refs.len();
-        refs.resize(end + n + 1, 0);
-        let (cur, spare) = refs[start..].split_at_mut(n);
-        let (mut n_above, mut n_below) = (0, 0);
-        for k in 0..n {
-            let i = cur[k];
-            let b = &boxes[i as usize];
-            spare[n_below] = i;
-            n_below += usize::from(b.min[axis] < plane);
-            cur[n_above] = i;
-            n_above += usize::from(b.max[axis] > plane || b.min[axis] >= plane);
-        }
-        refs.truncate(end + n_below);
-        if n_below == n && n_above == n {
-            // Every box straddles the plane: splitting gains nothing.
-            refs.truncate(end);
-            out.nodes[slot] = leaf(&refs[start..], &mut out.prims);
-            refs.truncate(start);
-            continue;
-        }
-        refs.copy_within(end.., start + n_above);
-        refs.truncate(start + n_above + n_below);
-        let child = 2 * interiors + 1;
-        interiors += 1;
-        out.nodes[slot] = Node::interior([Axis::X, Axis::Y, Axis::Z][axis], plane, child as u32)
-            .unwrap_or(Node::EMPTY_LEAF);
-        out.nodes.resize(child + 2, Node::EMPTY_LEAF);
-        let (cb, ca) = cell.split(axis, plane);
-        todo.push((child + 1, start, ca, depth + 1));
-        todo.push((child, start + n_above, cb, depth + 1));
-    }
-    // Laid out depth-first above; blobs hold the treelet order.
-    BuiltTree {
-        nodes: builders::layout::into_treelets(&out.nodes),
-        ..out
-    }
+    builders::fast::build(boxes, bounds, &fast)
 }
-
-/// A leaf of `refs` (in index order, each once: the partition keeps
-/// both); a run of several goes to `prims`.
-fn leaf(refs: &[u32], prims: &mut Vec<u32>) -> Node {
-    match refs {
-        [] => Node::EMPTY_LEAF,
-        [i] => Node::leaf(1, *i).unwrap_or(Node::EMPTY_LEAF),
-        _ => {
-            let at = prims.len() as u32;
-            prims.extend_from_slice(refs);
-            Node::leaf(refs.len() as u32, at).unwrap_or(Node::EMPTY_LEAF)
-        }
-    }
-}
-
-/// The cheapest of the bin boundaries on the cell's longest axis:
-/// (axis, plane, cost). (Tried: every axis, 3x the binning for trees of
-/// about the same cost on the generated level. Tried: counting the
-/// children's bins during the parent's partition, 2x slower: leaves bin
-/// too, and zeroed bin arrays ride on the stack.)
-fn best_plane(
-    boxes: &[Bounds],
-    refs: &[u32],
-    cell: &Bounds,
-    p: &TopParams,
-) -> Option<(usize, f32, f64)> {
-    let bins = p.bins;
-    let area = cell.area();
-    let n = refs.len();
-    let mut best: Option<(usize, f32, f64)> = None;
-    let ext = |a: usize| cell.max[a] - cell.min[a];
-    let longest = (0..3).fold(0, |b, a| if ext(a) > ext(b) { a } else { b });
-    for axis in [longest] {
-        let (lo, hi) = (cell.min[axis], cell.max[axis]);
-        let extent = hi - lo;
-        if extent.is_nan() || extent <= 0.0 {
-            continue;
-        }
-        let scale = bins as f32 / extent;
-        // Clamped to the cell's bins on both sides (a negative or NaN
-        // offset casts to 0).
-        let bin = |x: f32| (((x.max(lo) - lo) * scale) as usize).min(bins - 1);
-        let (mut starts, mut ends) = ([0u32; MAX_BINS], [0u32; MAX_BINS]);
-        for &i in refs {
-            let b = &boxes[i as usize];
-            starts[bin(b.min[axis])] += 1;
-            ends[bin(b.max[axis].min(hi))] += 1;
-        }
-        // Child areas in closed form: the cell's faces with this axis's
-        // length `l` are 2 (l (u + v) + u v), `u`, `v` the other two sides
-        // (Bounds::split and area per bin were most of the build's time).
-        let (u, v) = (
-            f64::from(ext((axis + 1) % 3)),
-            f64::from(ext((axis + 2) % 3)),
-        );
-        let (sum, prod) = (u + v, u * v);
-        let inv_area = if area > 0.0 { 1.0 / area } else { 0.0 };
-        let face = |l: f64| {
-            if area > 0.0 {
-                2.0 * (l * sum + prod) * inv_area
-            } else {
-                1.0
-            }
-        };
-        let (mut n_below, mut n_ended) = (0, 0);
-        for k in 1..bins {
-            n_below += starts[k - 1] as usize;
-            n_ended += ends[k - 1] as usize;
-            let plane = lo + extent * k as f32 / bins as f32;
-            if plane <= lo || plane >= hi {
-                continue;
-            }
-            let (pb, pa) = (face(f64::from(plane - lo)), face(f64::from(hi - plane)));
-            let cost = p.cost.split(pb, n_below, pa, n - n_ended);
-            if best.is_none_or(|(_, _, c)| cost < c) {
-                best = Some((axis, plane, cost));
-            }
-        }
-    }
-    best
-}
-
-/// The most bins [`TopParams::bins`] may ask for.
-const MAX_BINS: usize = 64;
 
 /// A scene built on the host: the mesh tree blobs, the instances, the top level.
 #[derive(Clone, Debug)]

@@ -3,7 +3,7 @@
 
 pub use crate::builders::CostModel;
 use kdray_kernel::Bounds;
-use kdray_kernel::{NodeKind, TriangleTree};
+use kdray_kernel::{Node, NodeKind, TriangleTree};
 
 /// Statistics of a triangle tree.
 #[derive(Clone, Debug, PartialEq)]
@@ -71,9 +71,6 @@ pub fn tree_stats(tree: &TriangleTree<'_>, cost: CostModel) -> TreeStats {
     // The line of node `i`: the 64-byte header is line 0.
     let line = |i: u32| (kdray_kernel::wire::HEADER_LEN as u64 + 8 * u64::from(i)) / 64;
     let nodes = tree.nodes();
-    // Pre-order: cell areas and leaf figures. Children always come after
-    // their parent, so one backward pass then costs every subtree.
-    let mut area = vec![0.0f64; nodes.len()];
     // (node, cell, depth, lines read so far, the last of them): children
     // come after their parent, so the lines on a path only increase.
     let mut todo = vec![(0u32, root, 0u32, 1u64, line(0))];
@@ -81,7 +78,6 @@ pub fn tree_stats(tree: &TriangleTree<'_>, cost: CostModel) -> TreeStats {
         let Some(node) = nodes.get(i as usize) else {
             continue;
         };
-        area[i as usize] = cell.area();
         match node.kind() {
             NodeKind::Interior { axis, split, child } => {
                 let (lo, hi) = cell.split(axis.index(), split);
@@ -97,6 +93,36 @@ pub fn tree_stats(tree: &TriangleTree<'_>, cost: CostModel) -> TreeStats {
                 lines_sum += lines;
                 refs += u64::from(count);
             }
+        }
+    }
+    s.sah_cost = sah_cost(nodes, &root, cost);
+    let full = (s.leaves - s.empty_leaves).max(1) as f64;
+    s.mean_leaf_depth = depth_sum as f64 / s.leaves.max(1) as f64;
+    s.mean_leaf_lines = lines_sum as f64 / s.leaves.max(1) as f64;
+    s.refs_per_triangle = refs as f64 / s.triangles.max(1) as f64;
+    s.mean_leaf_size = refs as f64 / full;
+    s.bytes_per_triangle = s.bytes as f64 / s.triangles.max(1) as f64;
+    s
+}
+
+/// The SAH cost per ray entering the root of the tree of `nodes` over the
+/// root cell `root` ([`TreeStats::sah_cost`]); for any tree in the blob's
+/// layout, a scene's top level included (its leaves' counts are instances).
+#[must_use]
+pub fn sah_cost(nodes: &[Node], root: &Bounds, cost: CostModel) -> f64 {
+    // Pre-order: cell areas. Children always come after their parent, so
+    // one backward pass then costs every subtree.
+    let mut area = vec![0.0f64; nodes.len()];
+    let mut todo = vec![(0u32, *root)];
+    while let Some((i, cell)) = todo.pop() {
+        let Some(node) = nodes.get(i as usize) else {
+            continue;
+        };
+        area[i as usize] = cell.area();
+        if let NodeKind::Interior { axis, split, child } = node.kind() {
+            let (lo, hi) = cell.split(axis.index(), split);
+            todo.push((child, lo));
+            todo.push((child + 1, hi));
         }
     }
     let mut sub = vec![0.0f64; nodes.len()];
@@ -121,12 +147,5 @@ pub fn tree_stats(tree: &TriangleTree<'_>, cost: CostModel) -> TreeStats {
             }
         };
     }
-    s.sah_cost = sub.first().copied().unwrap_or(0.0);
-    let full = (s.leaves - s.empty_leaves).max(1) as f64;
-    s.mean_leaf_depth = depth_sum as f64 / s.leaves.max(1) as f64;
-    s.mean_leaf_lines = lines_sum as f64 / s.leaves.max(1) as f64;
-    s.refs_per_triangle = refs as f64 / s.triangles.max(1) as f64;
-    s.mean_leaf_size = refs as f64 / full;
-    s.bytes_per_triangle = s.bytes as f64 / s.triangles.max(1) as f64;
-    s
+    sub.first().copied().unwrap_or(0.0)
 }

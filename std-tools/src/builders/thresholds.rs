@@ -11,6 +11,8 @@
 //! | [`MIN_GAIN`] | 0.1 | the binned builder splits only when it saves this fraction of a leaf |
 //! | [`SWEEP_MAX`] | 4096 | the `sweep` builder bins above this size, sweeps events below |
 //! | [`SWEEP_NONE`] | `SMALL_MAX` | the `sah` builder bins down to the small cells |
+//! | [`FAST_BINS`] | 16 | bins per cell of the `fast` builder |
+//! | [`FAST_LEAF_SIZE`] | 2 | cells the `fast` builder makes leaves without pricing |
 
 /// Cells with at least this many triangles may parallelise their own
 /// tallies and partitions, in chunks of this size.
@@ -63,3 +65,10 @@ pub(super) const SWEEP_MAX: usize = 4096;
 /// The `sah` builder's `sweep_max`: no event cells, binning down to the
 /// small cells (module docs).
 pub(super) const SWEEP_NONE: usize = SMALL_MAX;
+
+/// Bins per cell of the `fast` builder. Bunny: 8 bins, SAH cost 43.2
+/// against 40.2 for 13% less build time.
+pub(super) const FAST_BINS: usize = 16;
+
+/// Cells of at most this many triangles are leaves in the `fast` builder.
+pub(super) const FAST_LEAF_SIZE: usize = 2;

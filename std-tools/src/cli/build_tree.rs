@@ -21,7 +21,7 @@ pub(crate) struct Args {
     /// Where to write the tree blob.
     #[arg(short, long)]
     output: PathBuf,
-    /// The builder: sah (default), sweep, binned, median or middle.
+    /// The builder: sah (default), sweep, binned, fast, median or middle.
     #[arg(long, default_value = "sah")]
     builder: String,
     /// Build threads (default: all cores); the tree is the same for any count.

@@ -177,6 +177,10 @@ impl<const D: usize, S: Scalar> PointTreeN<'_, D, S> {
 /// `j0..j0 + len` of a leaf block of `count` points (axis by axis), each
 /// summed over the axes left to right as in [`distance2`], so the bits are
 /// the same; past `len` the entries are +inf.
+///
+/// Tried: full chunks as fixed-size arrays with the tail copied into a
+/// padded one (a `memcpy` call per axis), then read in place: 3-7% more
+/// instructions than this one loop at 3-D k = 10 and 8-D (callgrind).
 #[inline(always)]
 fn chunk_distances<const D: usize, S: Scalar>(
     block: &[S],

@@ -45,8 +45,22 @@ fn sets<const D: usize>(n: usize, seed: u64) -> Vec<(&'static str, Vec<[f32; D]>
     ]
 }
 
+/// One pass of kdray over `qs` into `out` (k = `out.len()`). Not inlined,
+/// as [`kiddo_pass`], so a profiler names each library's share.
+#[inline(never)]
+fn kdray_pass<const D: usize>(
+    tree: &kdray::kernel::PointTreeN<'_, D>,
+    qs: &[[f32; D]],
+    out: &mut [Neighbour],
+) {
+    for q in qs {
+        black_box(tree.knn(*q, out));
+    }
+}
+
 /// One pass of kiddo over `qs`: `nearest_one` for k = 1, else `nearest_n`
 /// (with one scratch buffer for the pass, as a caller would keep).
+#[inline(never)]
 fn kiddo_pass<const D: usize>(kd: &ImmutableKdTree<f32, D>, qs: &[[f32; D]], k: usize) {
     let Some(kk) = NonZeroUsize::new(k) else {
         return;
@@ -101,11 +115,7 @@ fn bench_dim<const D: usize>(c: &mut Criterion) {
             let tree = built.view().unwrap();
             let mut out = vec![Neighbour::NONE; k];
             g.bench_function(BenchmarkId::new("kdray", name), |b| {
-                b.iter(|| {
-                    for q in qs {
-                        black_box(tree.knn(*q, &mut out));
-                    }
-                })
+                b.iter(|| kdray_pass(&tree, qs, &mut out))
             });
             let kd = ImmutableKdTree::<f32, D>::new_from_slice(pts).unwrap();
             g.bench_function(BenchmarkId::new("kiddo", name), |b| {
@@ -134,7 +144,15 @@ fn interleaved<const D: usize>(rounds: usize) {
         f();
         *best = best.min(t.elapsed().as_secs_f64());
     };
+    // `KDRAY_KNN_SETS=uniform,dupes`: only those sets (for a profiler).
+    let only = std::env::var("KDRAY_KNN_SETS").ok();
     for ((name, pts), (_, qs)) in sets::<D>(n, 1).iter().zip(&sets::<D>(nq, 2)) {
+        if only
+            .as_deref()
+            .is_some_and(|o| !o.split(',').any(|s| s == *name))
+        {
+            continue;
+        }
         let (mut bk, mut bd) = (f64::INFINITY, f64::INFINITY);
         for _ in 0..rounds {
             best(
@@ -159,18 +177,15 @@ fn interleaved<const D: usize>(rounds: usize) {
         let built = build_points(pts, &params).unwrap();
         let tree = built.view().unwrap();
         let kd = ImmutableKdTree::<f32, D>::new_from_slice(pts).unwrap();
-        for k in [1usize, 10] {
+        // `KDRAY_KNN_K=10`: only that k (for a profiler).
+        let ks = std::env::var("KDRAY_KNN_K").map_or(vec![1, 10], |k| {
+            k.split(',').filter_map(|k| k.parse().ok()).collect()
+        });
+        for &k in &ks {
             let mut out = vec![Neighbour::NONE; k];
             let (mut tk, mut td) = (f64::INFINITY, f64::INFINITY);
             for _ in 0..rounds {
-                best(
-                    &mut || {
-                        for q in qs {
-                            black_box(tree.knn(*q, &mut out));
-                        }
-                    },
-                    &mut tk,
-                );
+                best(&mut || kdray_pass(&tree, qs, &mut out), &mut tk);
                 best(&mut || kiddo_pass(&kd, qs, k), &mut td);
             }
             let qps = |t: f64| qs.len() as f64 / t;

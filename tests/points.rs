@@ -125,11 +125,13 @@ fn check_all<const D: usize, S: Coord>(points: &[[S; D]], params: &PointParams, 
         if ra.is_ok() {
             assert_eq!(bits(&a), bits(&b), "within {q:?}");
         }
-        let mut a = [Neighbour::NONE; 5];
-        let mut b = [Neighbour::NONE; 5];
-        let na = tree.knn_within(q, S::of(0.02), &mut a);
-        let nb = knn_brute(points, q, S::of(0.02), &mut b);
-        assert_eq!((na, bits(&a)), (nb, bits(&b)), "knn_within {q:?}");
+        // k = 1 takes the nearest point's accumulator: with a max distance too.
+        for k in [1, 5] {
+            let (mut a, mut b) = (vec![Neighbour::NONE; k], vec![Neighbour::NONE; k]);
+            let na = tree.knn_within(q, S::of(0.02), &mut a);
+            let nb = knn_brute(points, q, S::of(0.02), &mut b);
+            assert_eq!((na, bits(&a)), (nb, bits(&b)), "knn_within k={k} {q:?}");
+        }
     }
 }
 

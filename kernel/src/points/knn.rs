@@ -8,6 +8,7 @@
 //! point (O(k²) per query). The order is total (indices are distinct), so
 //! both keep exactly the k first points in it: the same answer, bit for bit.
 
+use super::nearest::Nearest;
 use super::scalar::query_is_valid;
 use super::search::Accumulator;
 use super::{distance2, Neighbour, PointTreeN, Scalar};
@@ -236,6 +237,17 @@ impl<const D: usize, S: Scalar> PointTreeN<'_, D, S> {
         if out.is_empty() || !query_is_valid(&q) || max_d2.is_nan() {
             return 0;
         }
+        if let [one] = out {
+            // k = 1 is the nearest point: its accumulator keeps one
+            // neighbour in registers, where the buffer's is in memory.
+            let mut acc = Nearest::new(max_d2);
+            self.search(&q, &mut acc);
+            let best = acc.answer();
+            if let Some(n) = best {
+                *one = n;
+            }
+            return usize::from(best.is_some());
+        }
         let mut acc = Knn::new(out, max_d2);
         self.search(&q, &mut acc);
         acc.finish()
@@ -285,6 +297,14 @@ mod tests {
         assert_eq!(all[7], Neighbour::NONE);
         // max distance 1 from (0,0,0): points 0 (d2 0) and 1 (d2 1).
         assert_eq!(tree.knn_within([0.0; 3], 1.0, &mut all), 2);
+        // k = 1 (the nearest point's path): a point exactly at the max
+        // distance counts, none within leaves the buffer as it was.
+        let mut one = [Neighbour::NONE];
+        assert_eq!(tree.knn_within([0.0, 2.0, 0.0], 1.0, &mut one), 1);
+        assert_eq!(one[0].bits(), (2, u64::from(1.0f32.to_bits())));
+        let mut one = [Neighbour::NONE];
+        assert_eq!(tree.knn_within([0.0, 2.0, 0.0], 0.99, &mut one), 0);
+        assert_eq!(one[0], Neighbour::NONE);
         assert_eq!(tree.knn([f32::NAN; 3], &mut all), 0);
         assert_eq!(tree.knn([0.0; 3], &mut []), 0);
     }

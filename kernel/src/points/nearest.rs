@@ -5,7 +5,7 @@ use super::search::Accumulator;
 use super::{distance2, Neighbour, PointTreeN, Scalar};
 
 /// The best point so far: smaller squared distance, then lower index.
-struct Nearest<S: Scalar> {
+pub(crate) struct Nearest<S: Scalar> {
     best: Neighbour<S>,
 }
 
@@ -13,7 +13,7 @@ impl<S: Scalar> Nearest<S> {
     /// Nothing found yet; points farther than `max_d2` are never taken
     /// (the sentinel index `u32::MAX` loses every tie at `max_d2`).
     #[inline(always)]
-    fn new(max_d2: S) -> Nearest<S> {
+    pub(crate) fn new(max_d2: S) -> Nearest<S> {
         Nearest {
             best: Neighbour {
                 index: u32::MAX,
@@ -22,7 +22,7 @@ impl<S: Scalar> Nearest<S> {
         }
     }
 
-    fn answer(&self) -> Option<Neighbour<S>> {
+    pub(crate) fn answer(&self) -> Option<Neighbour<S>> {
         (self.best.index != u32::MAX).then_some(self.best)
     }
 }

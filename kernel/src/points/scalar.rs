@@ -135,8 +135,21 @@ pub(crate) fn sum_of_squares<const D: usize, S: Scalar>(d: [S; D]) -> S {
 pub(crate) fn box_distance2<const D: usize, S: Scalar>(b: &[[S; D]; 2], q: &[S; D]) -> S {
     let [min, max] = b;
     sum_of_squares::<D, S>(core::array::from_fn(|a| {
-        (min[a] - q[a]).max(q[a] - max[a]).max(S::ZERO)
+        larger(larger(min[a] - q[a], q[a] - max[a]), S::ZERO)
     }))
+}
+
+/// `a` if it is above `b`, else `b`: one compare and select, where
+/// [`Scalar::max`]'s NaN rule costs three more instructions per call (the
+/// query's bounds are not NaN on a validated tree; on an unvalidated one a
+/// NaN bound only prunes wrongly, as the queries' docs allow).
+#[inline(always)]
+pub(crate) fn larger<S: Scalar>(a: S, b: S) -> S {
+    if a > b {
+        a
+    } else {
+        b
+    }
 }
 
 /// Is `q` a query the trees answer? NaN coordinates get an empty answer.

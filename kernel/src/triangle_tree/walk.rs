@@ -48,12 +48,12 @@ use core::mem::MaybeUninit;
 
 /// A far child waiting on the stack with its interval.
 #[derive(Clone, Copy, Debug)]
-struct Pending {
-    node: u32,
+pub(super) struct Pending {
+    pub(super) node: u32,
     /// Start of the cell's interval, less the slack.
-    lo: f32,
+    pub(super) lo: f32,
     /// End of the cell's interval, plus the slack.
-    hi: f32,
+    pub(super) hi: f32,
 }
 
 // The traversal stack the docs promise: MAX_DEPTH entries of 12 bytes.
@@ -62,7 +62,7 @@ const _: () = assert!(core::mem::size_of::<Pending>() * MAX_DEPTH as usize == 76
 /// What the walk does in a non-empty leaf: the closest-hit or the any-hit
 /// search. A trait rather than a closure so that the leaf test is inlined
 /// into the loop (as a closure it was an out-of-line call per leaf).
-trait Visit<'a, T> {
+pub(super) trait Visit<'a, T> {
     /// The end of the ray's current interval: cells starting beyond it
     /// (plus the slack) cannot hold a better hit.
     fn bound(&self) -> f32;
@@ -82,10 +82,10 @@ const LEAF_LANES: bool = cfg!(any(
 ));
 
 /// The closest-hit search: every triangle of a leaf against `[tmin, best.t]`.
-struct ClosestVisit<'r> {
-    sr: &'r ShearedRay,
-    tmin: f32,
-    best: &'r mut Closest,
+pub(super) struct ClosestVisit<'r> {
+    pub(super) sr: &'r ShearedRay,
+    pub(super) tmin: f32,
+    pub(super) best: &'r mut Closest,
 }
 
 impl<'a, T: Tally> Visit<'a, T> for ClosestVisit<'_> {
@@ -112,10 +112,10 @@ impl<'a, T: Tally> Visit<'a, T> for ClosestVisit<'_> {
 }
 
 /// The any-hit search: stops at the first triangle hit in `[tmin, tmax]`.
-struct AnyVisit<'r> {
-    sr: &'r ShearedRay,
-    tmin: f32,
-    tmax: f32,
+pub(super) struct AnyVisit<'r> {
+    pub(super) sr: &'r ShearedRay,
+    pub(super) tmin: f32,
+    pub(super) tmax: f32,
 }
 
 impl<'a, T: Tally> Visit<'a, T> for AnyVisit<'_> {

@@ -221,10 +221,12 @@ fn slice_entry_points_match_single_rays() {
         .collect();
     // From one origin: the slices trace those in packets (scattered
     // origins go as single rays in turns).
+    let b = tree.bounds();
+    let centre = std::array::from_fn(|a| (b.min[a] + b.max[a]) / 2.0);
     let fan: Vec<Ray> = coherent
         .iter()
         .map(|r| Ray {
-            origin: coherent[0].origin,
+            origin: centre,
             ..*r
         })
         .collect();

@@ -92,19 +92,6 @@ impl<'a> TriangleTree<'a> {
     fn turn<V: Visit<'a, ()>>(&self, cr: &CellRay, w: &mut Walk, visit: &mut V) -> Option<bool> {
         let s2 = cr.slack + cr.slack;
         let (mut node, mut lo, mut hi, mut sp) = (w.node, w.lo, w.hi, w.sp);
-        // Hands the turn over at `node` (index `at`) unless its child pair
-        // shares the line `node` was read from.
-        macro_rules! next {
-            ($at:expr) => {
-                let at: usize = $at;
-                if node.is_leaf() || (node.upper() as usize ^ at) >= LINE_NODES {
-                    self.prefetch_node(node);
-                    (w.node, w.lo, w.hi, w.sp) = (node, lo, hi, sp);
-                    return None;
-                }
-                continue;
-            };
-        }
         loop {
             let axis = node.axis_bits();
             if axis < 3 {
@@ -112,33 +99,23 @@ impl<'a> TriangleTree<'a> {
                     return Some(false);
                 };
                 let t_split = (node.split() - o) * i;
-                let Some((near, far, second)) = self.children(node, cr.above_first_nibbles) else {
-                    return Some(false);
-                };
-                #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must visit: `walk.rs`
-                let (visit_near, visit_far) = (!(t_split < lo), !(t_split > hi));
-                let visit_far = visit_far & !far.is_empty_leaf();
-                let Some(slot) = w.stack.get_mut(sp) else {
-                    return Some(false);
-                };
-                let far_lo = lo.far_lo(t_split, s2);
-                slot.write(Pending {
-                    node: second as u32,
-                    lo: far_lo,
-                    hi,
-                });
-                if visit_near & !near.is_empty_leaf() {
-                    sp += usize::from(visit_far);
-                    node = near;
-                    hi = hi.near_hi(t_split, s2);
-                    // Pairs start at even indices (treelets): the near
-                    // child is the far one's neighbour.
-                    next!(second ^ 1);
-                }
-                if visit_far {
-                    node = far;
-                    lo = far_lo;
-                    next!(second);
+                let nibbles = cr.above_first_nibbles;
+                let step = (t_split, s2);
+                let stack = &mut w.stack;
+                match self.split_step(node, nibbles, step, (&mut lo, &mut hi), stack, &mut sp) {
+                    None => return Some(false),
+                    Some(Some((n, at))) => {
+                        node = n;
+                        // Hand over unless the pair `node` points to shares
+                        // the line `node` was read from.
+                        if node.is_leaf() || (node.upper() as usize ^ at) >= LINE_NODES {
+                            self.prefetch_node(node);
+                            (w.node, w.lo, w.hi, w.sp) = (node, lo, hi, sp);
+                            return None;
+                        }
+                        continue;
+                    }
+                    Some(None) => {}
                 }
             } else if node.upper() != 0 {
                 if node.upper() > 1 && !w.armed {
@@ -221,14 +198,88 @@ impl Slots {
     }
 }
 
+/// A query walked in turns: what a slot holds besides its walk.
+trait Query: Sized {
+    /// One ray's answer.
+    type Out;
+    /// The answer for a ray that never starts (invalid, or missing the box).
+    const MISS: Self::Out;
+    /// The query of `ray`.
+    fn new(ray: &Ray) -> Self;
+    /// The leaf search of `sr` (`walk.rs`'s visitors).
+    fn visit<'r, 'a>(&'r mut self, sr: &'r ShearedRay) -> impl Visit<'a, ()> + 'r;
+    /// The answer once the walk ended (`stopped` as `walk` returns it).
+    fn answer(&self, stopped: bool) -> Self::Out;
+}
+
+/// Any hit over `[tmin, tmax]`.
+struct Any(f32, f32);
+
+impl Query for Any {
+    type Out = bool;
+    const MISS: bool = false;
+    #[inline(always)]
+    fn new(ray: &Ray) -> Any {
+        Any(ray.tmin, ray.tmax)
+    }
+    #[inline(always)]
+    fn visit<'r, 'a>(&'r mut self, sr: &'r ShearedRay) -> impl Visit<'a, ()> + 'r {
+        AnyVisit {
+            sr,
+            tmin: self.0,
+            tmax: self.1,
+        }
+    }
+    #[inline(always)]
+    fn answer(&self, stopped: bool) -> bool {
+        stopped
+    }
+}
+
+/// The closest hit from `tmin`.
+struct Nearest(f32, Closest);
+
+impl Query for Nearest {
+    type Out = Hit;
+    const MISS: Hit = Hit::MISS;
+    #[inline(always)]
+    fn new(ray: &Ray) -> Nearest {
+        Nearest(ray.tmin, Closest::new(ray.tmax))
+    }
+    #[inline(always)]
+    fn visit<'r, 'a>(&'r mut self, sr: &'r ShearedRay) -> impl Visit<'a, ()> + 'r {
+        ClosestVisit {
+            sr,
+            tmin: self.0,
+            best: &mut self.1,
+        }
+    }
+    #[inline(always)]
+    fn answer(&self, _: bool) -> Hit {
+        self.1.hit()
+    }
+}
+
 impl TriangleTree<'_> {
     /// `occluded[i] = any_hit(&rays[i])` for the first
     /// `min(rays.len(), occluded.len())` rays, [`STREAM`] walks in turns.
     pub(crate) fn any_hits_stream(&self, rays: &[Ray], occluded: &mut [bool]) {
-        let n = rays.len().min(occluded.len());
+        self.in_turns::<Any>(rays, occluded);
+    }
+
+    /// `hits[i] = closest_hit(&rays[i])` for the first
+    /// `min(rays.len(), hits.len())` rays, [`STREAM`] walks in turns.
+    pub(crate) fn closest_hits_stream(&self, rays: &[Ray], hits: &mut [Hit]) {
+        self.in_turns::<Nearest>(rays, hits);
+    }
+
+    /// `Q`'s answers for `rays` into `out`, [`STREAM`] walks in turns:
+    /// a slot whose walk ends takes the next ray.
+    #[inline(always)]
+    fn in_turns<Q: Query>(&self, rays: &[Ray], out: &mut [Q::Out]) {
+        let n = rays.len().min(out.len());
         let mut slots = Slots::new();
-        let mut rs: [Option<(ShearedRay, CellRay, f32, f32)>; STREAM] =
-            core::array::from_fn(|_| None);
+        let mut rs: [Option<(ShearedRay, CellRay, Q)>; STREAM] = core::array::from_fn(|_| None);
         let mut next = 0usize;
         let mut live = 0usize;
         loop {
@@ -239,86 +290,24 @@ impl TriangleTree<'_> {
                 // Refill an empty slot with the next ray that needs a walk.
                 while slot.is_none() && next < n {
                     let Some(ray) = rays.get(next) else { break };
-                    match start(self, ray, w) {
-                        Some((sr, cr)) => {
-                            w.cutoff = ray.tmax.cutoff(cr.slack + cr.slack);
-                            *slot = Some((sr, cr, ray.tmin, ray.tmax));
-                            *at = next;
-                            live += 1;
-                        }
-                        None => {
-                            if let Some(o) = occluded.get_mut(next) {
-                                *o = false;
-                            }
-                        }
+                    if let Some((sr, cr)) = start(self, ray, w) {
+                        let mut q = Q::new(ray);
+                        w.cutoff = q.visit(&sr).bound().cutoff(cr.slack + cr.slack);
+                        *slot = Some((sr, cr, q));
+                        *at = next;
+                        live += 1;
+                    } else if let Some(o) = out.get_mut(next) {
+                        *o = Q::MISS;
                     }
                     next += 1;
                 }
-                let Some((sr, cr, tmin, tmax)) = slot else {
+                let Some((sr, cr, q)) = slot else {
                     continue;
                 };
-                let mut visit = AnyVisit {
-                    sr: &*sr,
-                    tmin: *tmin,
-                    tmax: *tmax,
-                };
-                if let Some(stopped) = self.turn(cr, w, &mut visit) {
-                    if let Some(o) = occluded.get_mut(*at) {
-                        *o = stopped;
-                    }
-                    *slot = None;
-                    live -= 1;
-                }
-            }
-            if live == 0 && next >= n {
-                return;
-            }
-        }
-    }
-
-    /// `hits[i] = closest_hit(&rays[i])` for the first
-    /// `min(rays.len(), hits.len())` rays, [`STREAM`] walks in turns.
-    pub(crate) fn closest_hits_stream(&self, rays: &[Ray], hits: &mut [Hit]) {
-        let n = rays.len().min(hits.len());
-        let mut slots = Slots::new();
-        let mut rs: [Option<(ShearedRay, CellRay, f32, Closest)>; STREAM] =
-            core::array::from_fn(|_| None);
-        let mut next = 0usize;
-        let mut live = 0usize;
-        loop {
-            for (k, slot) in rs.iter_mut().enumerate() {
-                let (Some(w), Some(at)) = (slots.walks.get_mut(k), slots.at.get_mut(k)) else {
-                    continue;
-                };
-                while slot.is_none() && next < n {
-                    let Some(ray) = rays.get(next) else { break };
-                    match start(self, ray, w) {
-                        Some((sr, cr)) => {
-                            let best = Closest::new(ray.tmax);
-                            w.cutoff = best.t.cutoff(cr.slack + cr.slack);
-                            *slot = Some((sr, cr, ray.tmin, best));
-                            *at = next;
-                            live += 1;
-                        }
-                        None => {
-                            if let Some(h) = hits.get_mut(next) {
-                                *h = Hit::MISS;
-                            }
-                        }
-                    }
-                    next += 1;
-                }
-                let Some((sr, cr, tmin, best)) = slot else {
-                    continue;
-                };
-                let mut visit = ClosestVisit {
-                    sr: &*sr,
-                    tmin: *tmin,
-                    best,
-                };
-                if self.turn(cr, w, &mut visit).is_some() {
-                    if let Some(h) = hits.get_mut(*at) {
-                        *h = visit.best.hit();
+                let ended = self.turn(cr, w, &mut q.visit(sr));
+                if let Some(stopped) = ended {
+                    if let Some(o) = out.get_mut(*at) {
+                        *o = q.answer(stopped);
                     }
                     *slot = None;
                     live -= 1;

@@ -219,7 +219,18 @@ fn slice_entry_points_match_single_rays() {
             ..*r
         })
         .collect();
-    for rays in [random, coherent] {
+    // From one origin: the slices trace those in packets (scattered
+    // origins go as single rays in turns).
+    let b = tree.bounds();
+    let centre = std::array::from_fn(|a| (b.min[a] + b.max[a]) / 2.0);
+    let fan: Vec<Ray> = coherent
+        .iter()
+        .map(|r| Ray {
+            origin: centre,
+            ..*r
+        })
+        .collect();
+    for rays in [random, coherent, fan] {
         let want: Vec<[u32; 4]> = rays.iter().map(|r| tree.closest_hit(r).bits()).collect();
         let want_any: Vec<bool> = rays.iter().map(|r| tree.any_hit(r)).collect();
         assert!(want_any.iter().filter(|&&a| a).count() > 100);

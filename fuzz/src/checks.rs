@@ -15,8 +15,8 @@
 
 use kdray::kernel::wire::{blob_checksum, Header, ENDIAN_CHECK, KIND_TRIANGLES, MAGIC, VERSION};
 use kdray::kernel::{
-    any_hit_brute, closest_hit_brute, Hit, Node, Packet, Packet4, Packet8, Ray, Triangle,
-    TriangleTree,
+    any_hit_brute, closest_hit_brute, Hit, Node, Packet, Packet4, Packet8, PacketWidth, Ray,
+    Triangle, TriangleTree,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
@@ -275,6 +275,17 @@ fn packet_lanes<'t, const N: usize>(
         share_signs(&mut p);
     }
     assert_lanes(tree, &p, closest(tree, &p), any(tree, &p));
+    // The same rays through the slice entry points, which walk rays with
+    // scattered origins as single rays in turns.
+    let rays: Vec<Ray> = (0..N).map(|l| p.ray(l)).collect();
+    let mut hits = vec![Hit::MISS; N];
+    tree.closest_hits_with(PacketWidth::One, &rays, &mut hits);
+    let mut occ = vec![false; N];
+    tree.any_hits_with(PacketWidth::One, &rays, &mut occ);
+    for ((ray, h), o) in rays.iter().zip(&hits).zip(&occ) {
+        assert_eq!(h.bits(), tree.closest_hit(ray).bits(), "slice: {ray:?}");
+        assert_eq!(*o, tree.any_hit(ray), "slice any: {ray:?}");
+    }
 }
 
 /// Gives every lane's direction lane 0's signs, keeping the magnitudes

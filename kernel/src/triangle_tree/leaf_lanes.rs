@@ -10,7 +10,9 @@
 //!
 //! Tried: four lanes (`f32x4`): 4-7% slower than the scalar test, since
 //! gathering a ~7-triangle leaf's 63 coordinates in two passes costs more
-//! than the scalar test's early exits save.
+//! than the scalar test's early exits save. Each triangle's first 8
+//! floats loaded as one AVX row and transposed (instead of 72 scalar
+//! stores): 1% more instructions on bunny shadow rays, no faster.
 //!
 //! Each lane performs the scalar test's operations in the scalar test's
 //! order ([`watertight`]), so each triangle's `t`, edge functions and

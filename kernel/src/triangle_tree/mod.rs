@@ -7,6 +7,7 @@ pub(crate) mod cell_ray;
 mod counts;
 mod leaf_lanes;
 pub(crate) mod packet;
+mod stream;
 mod walk;
 
 pub use counts::TraversalCounts;

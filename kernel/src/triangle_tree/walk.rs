@@ -40,7 +40,7 @@ use super::cell_ray::CellRay;
 use super::counts::{Tally, TraversalCounts};
 use super::leaf_lanes::{self, LANE_LEAF_MIN};
 use super::{LeafPrims, TriangleTree};
-use crate::blob::MAX_DEPTH;
+use crate::blob::{Node, MAX_DEPTH};
 use crate::geometry::{Hit, Ray};
 use crate::lanes::Span;
 use crate::triangle::{Closest, ShearedRay, Triangle};
@@ -48,12 +48,12 @@ use core::mem::MaybeUninit;
 
 /// A far child waiting on the stack with its interval.
 #[derive(Clone, Copy, Debug)]
-struct Pending {
-    node: u32,
+pub(super) struct Pending {
+    pub(super) node: u32,
     /// Start of the cell's interval, less the slack.
-    lo: f32,
+    pub(super) lo: f32,
     /// End of the cell's interval, plus the slack.
-    hi: f32,
+    pub(super) hi: f32,
 }
 
 // The traversal stack the docs promise: MAX_DEPTH entries of 12 bytes.
@@ -62,7 +62,7 @@ const _: () = assert!(core::mem::size_of::<Pending>() * MAX_DEPTH as usize == 76
 /// What the walk does in a non-empty leaf: the closest-hit or the any-hit
 /// search. A trait rather than a closure so that the leaf test is inlined
 /// into the loop (as a closure it was an out-of-line call per leaf).
-trait Visit<'a, T> {
+pub(super) trait Visit<'a, T> {
     /// The end of the ray's current interval: cells starting beyond it
     /// (plus the slack) cannot hold a better hit.
     fn bound(&self) -> f32;
@@ -82,10 +82,10 @@ const LEAF_LANES: bool = cfg!(any(
 ));
 
 /// The closest-hit search: every triangle of a leaf against `[tmin, best.t]`.
-struct ClosestVisit<'r> {
-    sr: &'r ShearedRay,
-    tmin: f32,
-    best: &'r mut Closest,
+pub(super) struct ClosestVisit<'r> {
+    pub(super) sr: &'r ShearedRay,
+    pub(super) tmin: f32,
+    pub(super) best: &'r mut Closest,
 }
 
 impl<'a, T: Tally> Visit<'a, T> for ClosestVisit<'_> {
@@ -112,10 +112,10 @@ impl<'a, T: Tally> Visit<'a, T> for ClosestVisit<'_> {
 }
 
 /// The any-hit search: stops at the first triangle hit in `[tmin, tmax]`.
-struct AnyVisit<'r> {
-    sr: &'r ShearedRay,
-    tmin: f32,
-    tmax: f32,
+pub(super) struct AnyVisit<'r> {
+    pub(super) sr: &'r ShearedRay,
+    pub(super) tmin: f32,
+    pub(super) tmax: f32,
 }
 
 impl<'a, T: Tally> Visit<'a, T> for AnyVisit<'_> {
@@ -287,6 +287,66 @@ impl<'a> TriangleTree<'a> {
         self.walk(cr, start, tally, &mut visit)
     }
 
+    /// One interior step of the walk at `node`, whose plane the ray
+    /// crosses at `t_split` (`above_first` and `s2` as the walk keeps
+    /// them), over the interval `[lo, hi]`: the child to
+    /// continue with and its index (the interval narrowed to it, the far
+    /// child pushed when both are visited), `Some(None)` when neither
+    /// holds anything for the ray, `None` for an invalid blob.
+    #[inline(always)]
+    pub(super) fn split_step(
+        &self,
+        node: Node,
+        above_first: u64,
+        (t_split, s2): (f32, f32),
+        (lo, hi): (&mut f32, &mut f32),
+        stack: &mut [MaybeUninit<Pending>],
+        sp: &mut usize,
+    ) -> Option<Option<(Node, usize)>> {
+        // Empty children are skipped here, at their parent (~4.6 of
+        // the ~28 steps of a camera ray through the bunny were such
+        // cells).
+        let (near, far, second) = self.children(node, above_first)?;
+        // The near child's cell ends at t_split, the far child's
+        // starts there. Intervals are kept widened by the slack on
+        // both ends ([lo, hi] = [t0 - s, t1 + s]), so the tests take
+        // t_split as computed, off the critical path of the slack add;
+        // a child's new end is t_split + s, widened once more: + 2s.
+        // Written as "not outside" so a NaN t_split (origin on the
+        // plane, direction parallel to it) visits both over the whole
+        // interval. (`lo <= hi` always, so a ray that skips the near
+        // cell by t_split < lo is inside the far one.)
+        #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must visit: see above
+        let (visit_near, visit_far) = (!(t_split < *lo), !(t_split > *hi));
+        let visit_far = visit_far & !far.is_empty_leaf();
+        // Push the far child unconditionally; keep it only when both
+        // children are visited.
+        // `None` deeper than MAX_DEPTH: only an unchecked, invalid blob.
+        let slot = stack.get_mut(*sp)?;
+        let far_lo = lo.far_lo(t_split, s2);
+        slot.write(Pending {
+            node: second as u32,
+            lo: far_lo,
+            hi: *hi,
+        });
+        // Branches, not selects: coherent rays take the same side at
+        // the same node, so they predict well. Tried conditional moves
+        // (mask selects of node, lo, hi): 25-30% slower on bunny
+        // camera rays, the same on random rays.
+        if visit_near & !near.is_empty_leaf() {
+            *sp += usize::from(visit_far);
+            *hi = hi.near_hi(t_split, s2);
+            // Pairs start at even indices (treelets): the near
+            // child is the far one's neighbour.
+            return Some(Some((near, second ^ 1)));
+        }
+        if visit_far {
+            *lo = far_lo;
+            return Some(Some((far, second)));
+        }
+        Some(None)
+    }
+
     /// The traversal loop: `visit` sees each non-empty leaf's primitives,
     /// in front-to-back order of cells. `true` when `visit` stopped it.
     #[inline(always)]
@@ -320,49 +380,16 @@ impl<'a> TriangleTree<'a> {
             if axis < 3 {
                 // Compute parametric distance along ray to split plane.
                 let t_split = (node.split() - slab[axis]) * slab[axis + 4];
-                // Empty children are skipped here, at their parent (~4.6 of
-                // the ~28 steps of a camera ray through the bunny were such
-                // cells).
-                let Some((near, far, second)) = self.children(node, cr.above_first_nibbles) else {
-                    return false;
-                };
-                // The near child's cell ends at t_split, the far child's
-                // starts there. Intervals are kept widened by the slack on
-                // both ends ([lo, hi] = [t0 - s, t1 + s]), so the tests take
-                // t_split as computed, off the critical path of the slack add;
-                // a child's new end is t_split + s, widened once more: + 2s.
-                // Written as "not outside" so a NaN t_split (origin on the
-                // plane, direction parallel to it) visits both over the whole
-                // interval. (`lo <= hi` always, so a ray that skips the near
-                // cell by t_split < lo is inside the far one.)
-                #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must visit: see above
-                let (visit_near, visit_far) = (!(t_split < lo), !(t_split > hi));
-                let visit_far = visit_far & !far.is_empty_leaf();
-                // Push the far child unconditionally; keep it only when both
-                // children are visited.
-                let Some(slot) = stack.get_mut(sp) else {
-                    return false; // deeper than MAX_DEPTH: only an unchecked, invalid blob
-                };
-                let far_lo = lo.far_lo(t_split, s2);
-                slot.write(Pending {
-                    node: second as u32,
-                    lo: far_lo,
-                    hi,
-                });
-                // Branches, not selects: coherent rays take the same side at
-                // the same node, so they predict well. Tried conditional moves
-                // (mask selects of node, lo, hi): 25-30% slower on bunny
-                // camera rays, the same on random rays.
-                if visit_near & !near.is_empty_leaf() {
-                    sp += usize::from(visit_far);
-                    node = near;
-                    hi = hi.near_hi(t_split, s2);
-                    continue;
-                }
-                if visit_far {
-                    node = far;
-                    lo = far_lo;
-                    continue;
+                let nibbles = cr.above_first_nibbles;
+                let step = (t_split, s2);
+                match self.split_step(node, nibbles, step, (&mut lo, &mut hi), &mut stack, &mut sp)
+                {
+                    None => return false,
+                    Some(Some((next, _))) => {
+                        node = next;
+                        continue;
+                    }
+                    Some(None) => {}
                 }
                 // Neither child holds anything for this ray: next far cell.
             } else if node.upper() != 0 {

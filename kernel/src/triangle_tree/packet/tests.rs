@@ -317,3 +317,37 @@ fn dispatch_runs_the_detected_level() {
         assert!(crate::cpu::set_isa(crate::cpu::Isa::Avx2).is_err());
     }
 }
+
+#[test]
+fn rays_in_turns_equal_single_rays_bitwise() {
+    // More rays than slots and than a block, adversarial ones among them
+    // (invalid rays and rays missing the box refill their slot at once).
+    let mut rng = Rng(7);
+    let (nodes, prims, tris) = scene(&mut rng);
+    let tree = TriangleTree::from_parts(&nodes, &prims, &tris, BOUNDS).unwrap();
+    let rays: [Ray; 301] = core::array::from_fn(|i| random_ray(&mut rng, i % 3 == 0));
+    assert!(
+        scattered(&rays, &BOUNDS),
+        "the slices would not walk these in turns"
+    );
+    let mut hits = [Hit::OCCLUDED; 301];
+    tree.closest_hits_stream(&rays, &mut hits);
+    let mut occ = [false; 300];
+    tree.any_hits_stream(&rays, &mut occ);
+    let mut hit = 0;
+    for (i, r) in rays.iter().enumerate() {
+        assert_eq!(hits[i].bits(), tree.closest_hit(r).bits(), "ray {i}: {r:?}");
+        if let Some(&o) = occ.get(i) {
+            assert_eq!(o, tree.any_hit(r), "ray {i}: {r:?}");
+            hit += usize::from(o);
+        }
+    }
+    let closest = hits.iter().filter(|h| h.is_hit()).count();
+    assert!(hit > 0 && closest > 0, "only {hit} / {closest} rays hit");
+    // One origin: not scattered.
+    let fan = rays.map(|r| Ray {
+        origin: [0.5; 3],
+        ..r
+    });
+    assert!(!scattered(&fan, &BOUNDS));
+}

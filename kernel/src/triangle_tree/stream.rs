@@ -1,0 +1,321 @@
+//! Several single rays walked in turns: the slice entry points' one-ray
+//! path for rays that share no cells (shadow rays from random surface
+//! points, random rays).
+//!
+//! Such a ray's walk waits on memory: each step's child pair and each
+//! leaf's triangles are a cache miss more often than not, and the next
+//! step depends on it. Walking [`STREAM`] rays in turns, one step each,
+//! and prefetching what each ray's next step reads, lets their misses
+//! overlap instead of queueing. Each ray's steps are exactly its single
+//! walk's (`walk.rs`), in the same order, with the same tests, so each
+//! answer is the single ray's bit for bit; only the interleaving of
+//! independent rays changes.
+
+use super::cell_ray::CellRay;
+use super::walk::{AnyVisit, ClosestVisit, LeafIter, Pending, Visit};
+use super::TriangleTree;
+use crate::blob::{Node, MAX_DEPTH};
+use crate::geometry::{Hit, Ray};
+use crate::lanes::Span;
+use crate::triangle::{Closest, ShearedRay};
+use core::mem::MaybeUninit;
+
+/// How many rays take turns.
+pub(crate) const STREAM: usize = 4;
+
+/// Where one ray's walk stands between its turns: the walk's loop
+/// variables (`walk.rs`).
+struct Walk {
+    node: Node,
+    lo: f32,
+    hi: f32,
+    sp: usize,
+    cutoff: f32,
+    /// Set once a leaf's triangles were prefetched: the next turn tests them.
+    armed: bool,
+    /// Entries below `sp` are written (as in `walk.rs`).
+    stack: [MaybeUninit<Pending>; MAX_DEPTH as usize],
+}
+
+/// Hints the cache to fetch the line holding `x`.
+#[inline(always)]
+fn prefetch<T>(x: &T) {
+    #[cfg(all(target_arch = "x86_64", not(miri)))]
+    // SAFETY: a prefetch only hints the cache: it reads nothing the
+    // program sees and never faults, for any address (and this one is a
+    // live reference).
+    unsafe {
+        use core::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        _mm_prefetch::<_MM_HINT_T0>((x as *const T).cast());
+    }
+    #[cfg(not(all(target_arch = "x86_64", not(miri))))]
+    let _ = x;
+}
+
+impl<'a> TriangleTree<'a> {
+    /// Prefetches what the walk reads at `node` next: an interior node's
+    /// child pair, a leaf's run of primitive indices (or its one triangle).
+    #[inline(always)]
+    fn prefetch_node(&self, node: Node) {
+        let at = node.upper() as usize;
+        if !node.is_leaf() {
+            if let Some(n) = self.nodes.get(at) {
+                prefetch(n);
+            }
+        } else if at == 1 {
+            if let Some(t) = self.triangles.get(node.word0() as usize) {
+                prefetch(t);
+            }
+        } else if let Some(p) = self.prims.get(node.word0() as usize) {
+            prefetch(p);
+        }
+    }
+
+    /// Prefetches the triangles of a leaf of several.
+    #[inline(always)]
+    fn prefetch_leaf(&self, node: Node) {
+        if let super::LeafPrims::Run(run) = self.leaf_prims(node) {
+            for &p in run {
+                if let Some(t) = self.triangles.get(p as usize) {
+                    prefetch(t);
+                }
+            }
+        }
+    }
+
+    /// One turn of a ray's walk: `walk.rs`'s loop, run until the ray's
+    /// next step reads a line it has not read yet (a child pair in another
+    /// line, a leaf's indices or triangles, a popped cell), which it
+    /// prefetches before handing over. `Some(stopped)` when the walk
+    /// ended, as `walk` returns it.
+    #[inline(always)]
+    fn turn<V: Visit<'a, ()>>(&self, cr: &CellRay, w: &mut Walk, visit: &mut V) -> Option<bool> {
+        let s2 = cr.slack + cr.slack;
+        let (mut node, mut lo, mut hi, mut sp) = (w.node, w.lo, w.hi, w.sp);
+        loop {
+            let axis = node.axis_bits();
+            if axis < 3 {
+                let (Some(&o), Some(&i)) = (cr.org.get(axis), cr.inv.get(axis)) else {
+                    return Some(false);
+                };
+                let t_split = (node.split() - o) * i;
+                let nibbles = cr.above_first_nibbles;
+                let step = (t_split, s2);
+                let stack = &mut w.stack;
+                match self.split_step(node, nibbles, step, (&mut lo, &mut hi), stack, &mut sp) {
+                    None => return Some(false),
+                    Some(Some((n, at))) => {
+                        node = n;
+                        // Hand over unless the pair `node` points to shares
+                        // the line `node` was read from.
+                        if node.is_leaf() || (node.upper() as usize ^ at) >= LINE_NODES {
+                            self.prefetch_node(node);
+                            (w.node, w.lo, w.hi, w.sp) = (node, lo, hi, sp);
+                            return None;
+                        }
+                        continue;
+                    }
+                    Some(None) => {}
+                }
+            } else if node.upper() != 0 {
+                if node.upper() > 1 && !w.armed {
+                    // The leaf's indices arrived (prefetched last turn):
+                    // fetch its triangles while the other rays take turns.
+                    w.armed = true;
+                    self.prefetch_leaf(node);
+                    (w.node, w.lo, w.hi, w.sp) = (node, lo, hi, sp);
+                    return None;
+                }
+                w.armed = false;
+                let prims = LeafIter::new(self.leaf_prims(node));
+                if visit.leaf(self.triangles, prims, &mut ()) {
+                    return Some(true);
+                }
+                w.cutoff = visit.bound().cutoff(s2);
+            }
+            loop {
+                if sp == 0 {
+                    return Some(false);
+                }
+                sp -= 1;
+                let Some(slot) = w.stack.get(sp) else {
+                    return Some(false);
+                };
+                // SAFETY: `sp` was above this entry, so it was written.
+                let p = unsafe { slot.assume_init() };
+                if p.lo <= w.cutoff {
+                    let Some(&n) = self.nodes.get(p.node as usize) else {
+                        return Some(false);
+                    };
+                    (node, lo, hi) = (n, p.lo, Span::min(p.hi, w.cutoff));
+                    break;
+                }
+            }
+            // A popped cell's pair was read long ago: hand over.
+            self.prefetch_node(node);
+            (w.node, w.lo, w.hi, w.sp) = (node, lo, hi, sp);
+            return None;
+        }
+    }
+}
+
+/// Nodes per 64-byte line: indices that differ only in the low bits share
+/// a line (the node array starts on a line in a loaded blob).
+const LINE_NODES: usize = 8;
+
+/// A ray's set-up for its walk; `None` for an invalid ray or one that
+/// misses the scene box (its answer is a miss).
+#[inline(always)]
+fn start(tree: &TriangleTree<'_>, ray: &Ray, w: &mut Walk) -> Option<(ShearedRay, CellRay)> {
+    let sr = ShearedRay::new(ray)?;
+    let cr = CellRay::new(ray, &sr, &tree.bounds)?;
+    let (lo, hi) = cr.start();
+    let node = *tree.nodes.first()?;
+    (w.node, w.lo, w.hi, w.sp, w.armed) = (node, lo, hi, 0, false);
+    Some((sr, cr))
+}
+
+/// The slots' walks; a slot holds ray `at` of the slice, or none.
+struct Slots {
+    walks: [Walk; STREAM],
+    at: [usize; STREAM],
+}
+
+impl Slots {
+    fn new() -> Slots {
+        Slots {
+            walks: core::array::from_fn(|_| Walk {
+                node: Node::EMPTY_LEAF,
+                lo: 0.0,
+                hi: 0.0,
+                sp: 0,
+                cutoff: 0.0,
+                armed: false,
+                stack: [MaybeUninit::uninit(); MAX_DEPTH as usize],
+            }),
+            at: [usize::MAX; STREAM],
+        }
+    }
+}
+
+/// A query walked in turns: what a slot holds besides its walk.
+trait Query: Sized {
+    /// One ray's answer.
+    type Out;
+    /// The answer for a ray that never starts (invalid, or missing the box).
+    const MISS: Self::Out;
+    /// The query of `ray`.
+    fn new(ray: &Ray) -> Self;
+    /// The leaf search of `sr` (`walk.rs`'s visitors).
+    fn visit<'r, 'a>(&'r mut self, sr: &'r ShearedRay) -> impl Visit<'a, ()> + 'r;
+    /// The answer once the walk ended (`stopped` as `walk` returns it).
+    fn answer(&self, stopped: bool) -> Self::Out;
+}
+
+/// Any hit over `[tmin, tmax]`.
+struct Any(f32, f32);
+
+impl Query for Any {
+    type Out = bool;
+    const MISS: bool = false;
+    #[inline(always)]
+    fn new(ray: &Ray) -> Any {
+        Any(ray.tmin, ray.tmax)
+    }
+    #[inline(always)]
+    fn visit<'r, 'a>(&'r mut self, sr: &'r ShearedRay) -> impl Visit<'a, ()> + 'r {
+        AnyVisit {
+            sr,
+            tmin: self.0,
+            tmax: self.1,
+        }
+    }
+    #[inline(always)]
+    fn answer(&self, stopped: bool) -> bool {
+        stopped
+    }
+}
+
+/// The closest hit from `tmin`.
+struct Nearest(f32, Closest);
+
+impl Query for Nearest {
+    type Out = Hit;
+    const MISS: Hit = Hit::MISS;
+    #[inline(always)]
+    fn new(ray: &Ray) -> Nearest {
+        Nearest(ray.tmin, Closest::new(ray.tmax))
+    }
+    #[inline(always)]
+    fn visit<'r, 'a>(&'r mut self, sr: &'r ShearedRay) -> impl Visit<'a, ()> + 'r {
+        ClosestVisit {
+            sr,
+            tmin: self.0,
+            best: &mut self.1,
+        }
+    }
+    #[inline(always)]
+    fn answer(&self, _: bool) -> Hit {
+        self.1.hit()
+    }
+}
+
+impl TriangleTree<'_> {
+    /// `occluded[i] = any_hit(&rays[i])` for the first
+    /// `min(rays.len(), occluded.len())` rays, [`STREAM`] walks in turns.
+    pub(crate) fn any_hits_stream(&self, rays: &[Ray], occluded: &mut [bool]) {
+        self.in_turns::<Any>(rays, occluded);
+    }
+
+    /// `hits[i] = closest_hit(&rays[i])` for the first
+    /// `min(rays.len(), hits.len())` rays, [`STREAM`] walks in turns.
+    pub(crate) fn closest_hits_stream(&self, rays: &[Ray], hits: &mut [Hit]) {
+        self.in_turns::<Nearest>(rays, hits);
+    }
+
+    /// `Q`'s answers for `rays` into `out`, [`STREAM`] walks in turns:
+    /// a slot whose walk ends takes the next ray.
+    #[inline(always)]
+    fn in_turns<Q: Query>(&self, rays: &[Ray], out: &mut [Q::Out]) {
+        let n = rays.len().min(out.len());
+        let mut slots = Slots::new();
+        let mut rs: [Option<(ShearedRay, CellRay, Q)>; STREAM] = core::array::from_fn(|_| None);
+        let mut next = 0usize;
+        let mut live = 0usize;
+        loop {
+            for (k, slot) in rs.iter_mut().enumerate() {
+                let (Some(w), Some(at)) = (slots.walks.get_mut(k), slots.at.get_mut(k)) else {
+                    continue;
+                };
+                // Refill an empty slot with the next ray that needs a walk.
+                while slot.is_none() && next < n {
+                    let Some(ray) = rays.get(next) else { break };
+                    if let Some((sr, cr)) = start(self, ray, w) {
+                        let mut q = Q::new(ray);
+                        w.cutoff = q.visit(&sr).bound().cutoff(cr.slack + cr.slack);
+                        *slot = Some((sr, cr, q));
+                        *at = next;
+                        live += 1;
+                    } else if let Some(o) = out.get_mut(next) {
+                        *o = Q::MISS;
+                    }
+                    next += 1;
+                }
+                let Some((sr, cr, q)) = slot else {
+                    continue;
+                };
+                let ended = self.turn(cr, w, &mut q.visit(sr));
+                if let Some(stopped) = ended {
+                    if let Some(o) = out.get_mut(*at) {
+                        *o = q.answer(stopped);
+                    }
+                    *slot = None;
+                    live -= 1;
+                }
+            }
+            if live == 0 && next >= n {
+                return;
+            }
+        }
+    }
+}

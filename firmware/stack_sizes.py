@@ -8,7 +8,8 @@ and `-T stack-sizes.x` (which keeps the `.stack_sizes` section: one
 (function address, frame bytes) pair per function the compiler generated).
 OBJDUMP is llvm-objdump, whose disassembly gives the call graph (`bl`, and
 `b`/`b.w` to another function's start: a tail call). An entry point's use
-is its frame plus the largest use among its callees, over every path.
+is its frame plus the largest use among its callees, over every path;
+the deepest path is printed with each function's frame in parentheses.
 
 Functions without an entry (compiler-builtins, precompiled without the
 flag) get their frame from their prologue (`push`, `vpush`, `sub sp`), and
@@ -122,7 +123,7 @@ def main():
             if indirect:
                 sys.exit(f"{name} makes an indirect call: its stack use has no static bound here")
             deepest = max((use(c, path + [addr]) for c in callees), default=(0, []))
-            memo[addr] = (frame(addr) + deepest[0], [name] + deepest[1])
+            memo[addr] = (frame(addr) + deepest[0], [f"{name} ({frame(addr)})"] + deepest[1])
         return memo[addr]
 
     by_name = {f[0]: a for a, f in funcs.items()}

@@ -198,7 +198,7 @@ fn bad_inputs_get_clear_errors() {
         (vec!["build", &nan_obj, "-o", &tree], "non-finite"),
         (
             vec!["build", &obj, "-o", &tree, "--builder", "bvh"],
-            "unknown builder 'bvh' (expected one of sah, sweep, binned, median, middle)",
+            "unknown builder 'bvh' (expected one of sah, sweep, binned, fast, median, middle)",
         ),
         (
             vec!["bench", "needles", "--builders", "sah,kd"],

@@ -118,8 +118,8 @@ fn tree_vs_brute_sah_hit_at_t0_off_the_dominant_axis_on_huge_sliver() {
 /// The plane's `t` was kept within the triangle's box widened by a margin
 /// relative to the box's whole span (7.7e8 here), which took in the
 /// origin: brute force hit at t = 0, where the tree's walk never goes.
-/// Each face is now widened by its own magnitude and the origin's, and the
-/// walk clips to the scene box widened by twice that.
+/// The walk now clips rays to the scene box widened by twice that margin
+/// of the scene's extent.
 #[test]
 fn tree_vs_brute_sah_hit_at_t0_outside_the_scene_in_a_huge_triangles_margin() {
     checks::tree_vs_brute(include_bytes!(

@@ -520,20 +520,15 @@ fn box_clamp(t: f64, tri: &Triangle, org: &[f32; 3], dir: &[f32; 3]) -> f32 {
 }
 
 /// A triangle box's extent `[lo, hi]` on one axis widened by
-/// [`BOX_MARGIN`] of each face's own magnitude and the origin
-/// coordinate's `o`. Moving a face `x` to `x ∓ m (|x| + |o|)` keeps the
-/// faces in order (`x - m|x|` grows with `x`), so a triangle's widened box
-/// stays inside the scene's box widened the same way, which the walk's
-/// root clip covers (the triangle tree's `ROOT_MARGIN`). (A margin
-/// of the whole span `|lo| + |hi|` let a triangle reaching y = 2e14 take
-/// in an origin outside the scene at y = -10.)
+/// [`BOX_MARGIN`] of `|lo| + |hi| + |o|` (`o` the origin coordinate) on
+/// both faces. Since `x - m|x|` grows with `x` and `|lo|, |hi|` are at most
+/// the scene's `|min| + |max|`, a triangle's widened box stays inside the
+/// scene's box widened by that margin of the scene's extent, which the
+/// walk's root clip covers (the triangle tree's `ROOT_MARGIN`).
 #[inline(always)]
 pub(crate) fn widen(lo: f64, hi: f64, o: f64) -> (f64, f64) {
-    let o = o.abs();
-    (
-        lo - BOX_MARGIN * (lo.abs() + o),
-        hi + BOX_MARGIN * (hi.abs() + o),
-    )
+    let margin = BOX_MARGIN * (lo.abs() + hi.abs() + o.abs());
+    (lo - margin, hi + margin)
 }
 
 /// The margin of [`hit_inside_box`]'s box, relative to each face's and the

@@ -24,23 +24,23 @@ use crate::triangle::ShearedRay;
 pub(crate) const SLACK: f32 = 1.0 / 262_144.0;
 
 /// How far the root cell reaches past each face of the scene bounds,
-/// relative to the face's magnitude and the origin coordinate's (2^-17):
-/// twice the margin by which the triangle test takes a hit point outside
-/// its triangle's box (`triangle::widen`), so a hit brute force accepts
-/// is never clipped away with the ray, whatever the `f32` rounding here.
+/// relative to `|min| + |max| + |o|` on that axis (2^-17, `o` the
+/// origin coordinate): twice the margin by which the triangle test takes a
+/// hit point outside its triangle's box (`triangle::widen`), so a hit
+/// brute force accepts is never clipped away with the ray, whatever the
+/// `f32` rounding here.
 pub(crate) const ROOT_MARGIN: f32 = 1.0 / 131_072.0;
 
 /// The scene bounds widened by [`ROOT_MARGIN`] for a ray from `org`: the
 /// root cell the walk clips a ray to.
 #[inline(always)]
 fn root_cell(bounds: &Bounds, org: &[f32; 3]) -> Bounds {
+    let margin: [f32; 3] = core::array::from_fn(|a| {
+        ROOT_MARGIN * (bounds.min[a].abs() + bounds.max[a].abs() + org[a].abs())
+    });
     Bounds {
-        min: core::array::from_fn(|a| {
-            bounds.min[a] - ROOT_MARGIN * (bounds.min[a].abs() + org[a].abs())
-        }),
-        max: core::array::from_fn(|a| {
-            bounds.max[a] + ROOT_MARGIN * (bounds.max[a].abs() + org[a].abs())
-        }),
+        min: core::array::from_fn(|a| bounds.min[a] - margin[a]),
+        max: core::array::from_fn(|a| bounds.max[a] + margin[a]),
     }
 }
 

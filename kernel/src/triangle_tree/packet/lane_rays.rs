@@ -174,8 +174,9 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
             // The slab test over the root cell, as `CellRay::new`.
             let (lo, hi) = (V::splat(bounds.min[a]), V::splat(bounds.max[a]));
             let (margin, oa) = (V::splat(ROOT_MARGIN), c.org[a].abs());
-            let to_min = (lo - margin * (lo.abs() + oa)) - c.org[a];
-            let to_max = (hi + margin * (hi.abs() + oa)) - c.org[a];
+            let m = margin * ((lo.abs() + hi.abs()) + oa);
+            let to_min = (lo - m) - c.org[a];
+            let to_max = (hi + m) - c.org[a];
             let ta = to_min * inv[a];
             let tb = to_max * inv[a];
             plain = plain & ta.eq_mask(ta) & tb.eq_mask(tb);

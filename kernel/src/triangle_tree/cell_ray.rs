@@ -35,12 +35,14 @@ pub(crate) const ROOT_MARGIN: f32 = 1.0 / 131_072.0;
 /// root cell the walk clips a ray to.
 #[inline(always)]
 fn root_cell(bounds: &Bounds, org: &[f32; 3]) -> Bounds {
-    let margin: [f32; 3] = core::array::from_fn(|a| {
-        ROOT_MARGIN * (bounds.min[a].abs() + bounds.max[a].abs() + org[a].abs())
-    });
+    // Per axis by name, no indexing: indexed forms left a bounds check (a
+    // panic path) at opt-level "s".
+    let ([x0, y0, z0], [x1, y1, z1], [ox, oy, oz]) = (bounds.min, bounds.max, *org);
+    let m = |lo: f32, hi: f32, o: f32| ROOT_MARGIN * (lo.abs() + hi.abs() + o.abs());
+    let (mx, my, mz) = (m(x0, x1, ox), m(y0, y1, oy), m(z0, z1, oz));
     Bounds {
-        min: core::array::from_fn(|a| bounds.min[a] - margin[a]),
-        max: core::array::from_fn(|a| bounds.max[a] + margin[a]),
+        min: [x0 - mx, y0 - my, z0 - mz],
+        max: [x1 + mx, y1 + my, z1 + mz],
     }
 }
 

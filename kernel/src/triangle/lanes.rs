@@ -5,8 +5,9 @@
 //! Lanes whose `f32` edge function is exactly zero are recomputed by the
 //! scalar [`edge_functions_f64`], as the single ray does; lanes whose `t`
 //! window ([`t_window`], shared with the scalar test) straddles the
-//! interval get the scalar `f64` `t` ([`plane_t`](super::plane_t)), one
-//! lane at a time.
+//! interval get the `f64` `t` ([`plane_t`](super::plane_t)) from the
+//! caller, all such lanes at once (a packet's lanes against one triangle
+//! run [`plane_t_lanes`](super::plane_t_lanes)).
 
 use super::{edge_functions_f64, t_window, WELL_SHAPED};
 use crate::lanes::Lanes;
@@ -30,9 +31,13 @@ pub(crate) struct LaneHits<V> {
 /// runs along +z, `sz` the shear's `1/d[kz]`; the lanes in `live` that hit
 /// within their `[tmin, tmax]`, `None` when none does. Lanes may hold rays
 /// (a packet against one triangle) or triangles (one ray against a leaf's
-/// triangles): the arithmetic is the same. `exact_t(l)` is lane `l`'s
-/// [`plane_t`](super::plane_t); `ANY`: only the hit mask is wanted (any hit), and lanes
-/// clearly inside their interval skip the `f64` `t`.
+/// triangles): the arithmetic is the same. The caller writes
+/// [`plane_t`](super::plane_t) into [`LaneWindow::t`] for the lanes in
+/// [`LaneWindow::exact`], then takes [`LaneWindow::hits`] (not a closure
+/// passed in: a closure stays out of line, compiled without the level's
+/// vector features, [`crate::lanes::dispatch`]). `ANY`: only the hit mask
+/// is wanted (any hit), and lanes clearly inside their interval skip the
+/// `f64` `t`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn watertight<V: Lanes<N>, const N: usize, const ANY: bool>(
@@ -43,8 +48,7 @@ pub(crate) fn watertight<V: Lanes<N>, const N: usize, const ANY: bool>(
     live: u32,
     tmin: V,
     tmax: V,
-    exact_t: impl Fn(usize) -> f32,
-) -> Option<LaneHits<V>> {
+) -> Option<LaneWindow<V, N>> {
     let ((ax, ay, az), (bx, by, bz), (cx, cy, cz)) = (a, b, c);
     // 2-D edge functions: u weighs vertex 0, v vertex 1, w vertex 2.
     let mut u = cx * by - cy * bx;
@@ -88,20 +92,50 @@ pub(crate) fn watertight<V: Lanes<N>, const N: usize, const ANY: bool>(
     } else {
         0
     };
-    let mut t = t_est.to_array();
-    let mut exact = hit & !sure;
-    while exact != 0 {
-        let l = exact.trailing_zeros() as usize;
-        exact &= exact - 1;
-        if let Some(x) = t.get_mut(l) {
-            *x = exact_t(l);
-        }
+    Some(LaneWindow {
+        hit,
+        sure,
+        exact: hit & !sure,
+        t: t_est.to_array(),
+        v,
+        w,
+        det,
+    })
+}
+
+/// The lanes [`watertight`] passes, before the `f64` `t`.
+pub(crate) struct LaneWindow<V, const N: usize> {
+    /// Lanes whose window meets `[tmin, tmax]`.
+    hit: u32,
+    /// Lanes an any-hit query takes without the `f64` `t`.
+    sure: u32,
+    /// Lanes that need the `f64` `t`, written into [`LaneWindow::t`].
+    pub(crate) exact: u32,
+    /// Each lane's `t`: the estimate, until the caller writes the `f64` `t`.
+    pub(crate) t: [f32; N],
+    v: V,
+    w: V,
+    det: V,
+}
+
+impl<V: Lanes<N>, const N: usize> LaneWindow<V, N> {
+    /// The lanes hit, once [`LaneWindow::t`] holds the `f64` `t` of the
+    /// lanes in [`LaneWindow::exact`]: that `t` within `[tmin, tmax]` and
+    /// finite (or the lane sure).
+    #[inline(always)]
+    pub(crate) fn hits(self, tmin: V, tmax: V) -> Option<LaneHits<V>> {
+        let t = V::from_array(self.t);
+        let inf = V::splat(f32::INFINITY);
+        let ok = t.ge_mask(tmin) & t.le_mask(tmax) & t.abs().lt_mask(inf);
+        let hit = self.hit & (ok.bits() | self.sure);
+        (hit != 0).then_some(LaneHits {
+            hit,
+            t,
+            v: self.v,
+            w: self.w,
+            det: self.det,
+        })
     }
-    let t = V::from_array(t);
-    // The f64 t's verdict: within [tmin, tmax] and finite.
-    let ok = t.ge_mask(tmin) & t.le_mask(tmax) & t.abs().lt_mask(inf);
-    hit &= ok.bits() | sure;
-    (hit != 0).then_some(LaneHits { hit, t, v, w, det })
 }
 
 /// Recomputes the edge functions of the lanes in `lanes` in `f64`.

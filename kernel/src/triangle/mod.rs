@@ -367,47 +367,8 @@ pub(crate) const WELL_SHAPED: f32 = 16.0;
 #[inline]
 #[must_use]
 pub(crate) fn plane_t(org: &[f32; 3], dir: &[f32; 3], tri: &Triangle) -> f32 {
-    // Spelled out component by component, each value formed where it is
-    // needed: over arrays indexed in loops the compiler kept every `f64`
-    // vertex, origin and direction live to the box test, shuffling them
-    // through memory (261 instructions a call on x86-64) and, in software
-    // floating point, spilling them (a 360-byte frame on thumbv7em). The
-    // operations and their order are unchanged: the same bits.
-    let [v0, v1, v2] = &tri.v;
-    let f = f64::from;
-    let (e1x, e1y, e1z) = (
-        f(v1[0]) - f(v0[0]),
-        f(v1[1]) - f(v0[1]),
-        f(v1[2]) - f(v0[2]),
-    );
-    let (e2x, e2y, e2z) = (
-        f(v2[0]) - f(v0[0]),
-        f(v2[1]) - f(v0[1]),
-        f(v2[2]) - f(v0[2]),
-    );
-    let (nx, ny, nz) = (
-        e1y * e2z - e1z * e2y,
-        e1z * e2x - e1x * e2z,
-        e1x * e2y - e1y * e2x,
-    );
-    let noise = l1(e1x, e1y, e1z) * l1(e2x, e2y, e2z) * PLANE_NOISE;
-    let (dx, dy, dz) = (f(dir[0]), f(dir[1]), f(dir[2]));
-    let den = nx * dx + ny * dy + nz * dz;
-    // A NaN bound is no plane either.
-    let plane = den.abs() > noise * l1(dx, dy, dz);
-    if !plane {
+    let Some(t) = Plane::of(tri).ray_t(&tri.v[0], org, dir) else {
         return f32::NAN;
-    }
-    let (ax, ay, az) = (
-        f(v0[0]) - f(org[0]),
-        f(v0[1]) - f(org[1]),
-        f(v0[2]) - f(org[2]),
-    );
-    let num = nx * ax + ny * ay + nz * az;
-    let t = if num.abs() <= noise * l1(ax, ay, az) {
-        0.0
-    } else {
-        num / den
     };
     // Kept within the ray's interval through the triangle's bounding box,
     // where every point of the triangle lies: for a well-conditioned hit
@@ -422,6 +383,123 @@ pub(crate) fn plane_t(org: &[f32; 3], dir: &[f32; 3], tri: &Triangle) -> f32 {
         return t as f32;
     }
     box_clamp(t, tri, org, dir)
+}
+
+/// [`plane_t`] of each lane's ray against one triangle `tri`, into `t`
+/// for the lanes in `lanes` (bit `l` = lane `l`; the others keep their
+/// value): `org[axis][lane]`, `dir` likewise. The triangle's part (normal,
+/// threshold, box) is formed once; each lane performs [`plane_t`]'s
+/// operations in its order, so its bits are the single ray's. Written over
+/// arrays without branches up to the clamp, so that the compiler runs the
+/// lanes in vector registers (packets against a triangle that several of
+/// their rays hit).
+#[inline(always)]
+pub(crate) fn plane_t_lanes<const N: usize>(
+    org: &[[f32; N]; 3],
+    dir: &[[f32; N]; 3],
+    tri: &Triangle,
+    lanes: u32,
+    t: &mut [f32; N],
+) {
+    let at = |c: &[[f32; N]; 3], l: usize| [c[0][l], c[1][l], c[2][l]];
+    if lanes.count_ones() == 1 {
+        // One lane: the scalar call is cheaper than all N.
+        let l = lanes.trailing_zeros() as usize;
+        if let Some(x) = t.get_mut(l) {
+            *x = plane_t(&at(org, l), &at(dir, l), tri);
+        }
+        return;
+    }
+    let plane = Plane::of(tri);
+    // Loops over lane arrays, not `array::from_fn`: that stayed out of
+    // line, compiled without the level's vector features.
+    let mut t64 = [0.0f64; N];
+    for (l, x) in t64.iter_mut().enumerate() {
+        let ray_t = plane.ray_t(&tri.v[0], &at(org, l), &at(dir, l));
+        *x = ray_t.unwrap_or(f64::NAN);
+    }
+    let mut inside = [false; N];
+    for (l, (inside, &x)) in inside.iter_mut().zip(&t64).enumerate() {
+        *inside = hit_inside_box(x, tri, &at(org, l), &at(dir, l));
+    }
+    for (l, (out, (&x, &inside))) in t.iter_mut().zip(t64.iter().zip(&inside)).enumerate() {
+        if lanes >> l & 1 == 0 {
+            continue;
+        }
+        *out = if inside {
+            x as f32
+        } else if x.is_nan() {
+            // No plane ([`plane_t`]'s early return).
+            f32::NAN
+        } else {
+            box_clamp(x, tri, &at(org, l), &at(dir, l))
+        };
+    }
+}
+
+/// A triangle's plane as [`plane_t`] forms it: the normal `n = (v1 - v0)
+/// × (v2 - v0)` in `f64` and the zero threshold `noise`.
+#[derive(Clone, Copy)]
+struct Plane {
+    n: (f64, f64, f64),
+    noise: f64,
+}
+
+impl Plane {
+    /// The plane of `tri`.
+    #[inline(always)]
+    fn of(tri: &Triangle) -> Plane {
+        // Spelled out component by component, each value formed where it
+        // is needed: over arrays indexed in loops the compiler kept every
+        // `f64` vertex, origin and direction live to the box test,
+        // shuffling them through memory (261 instructions a call on
+        // x86-64) and, in software floating point, spilling them (a
+        // 360-byte frame on thumbv7em).
+        let [v0, v1, v2] = &tri.v;
+        let f = f64::from;
+        let (e1x, e1y, e1z) = (
+            f(v1[0]) - f(v0[0]),
+            f(v1[1]) - f(v0[1]),
+            f(v1[2]) - f(v0[2]),
+        );
+        let (e2x, e2y, e2z) = (
+            f(v2[0]) - f(v0[0]),
+            f(v2[1]) - f(v0[1]),
+            f(v2[2]) - f(v0[2]),
+        );
+        Plane {
+            n: (
+                e1y * e2z - e1z * e2y,
+                e1z * e2x - e1x * e2z,
+                e1x * e2y - e1y * e2x,
+            ),
+            noise: l1(e1x, e1y, e1z) * l1(e2x, e2y, e2z) * PLANE_NOISE,
+        }
+    }
+
+    /// The unclamped `t` of [`plane_t`] for the ray `org + t dir` (`v0`
+    /// the triangle's vertex 0), `None` when there is no plane.
+    /// Branch-free but for the result (the division is always made), so
+    /// that lanes of it vectorise.
+    #[inline(always)]
+    fn ray_t(&self, v0: &[f32; 3], org: &[f32; 3], dir: &[f32; 3]) -> Option<f64> {
+        let f = f64::from;
+        let (nx, ny, nz) = self.n;
+        let (dx, dy, dz) = (f(dir[0]), f(dir[1]), f(dir[2]));
+        let den = nx * dx + ny * dy + nz * dz;
+        // A NaN bound is no plane either.
+        let plane = den.abs() > self.noise * l1(dx, dy, dz);
+        let (ax, ay, az) = (
+            f(v0[0]) - f(org[0]),
+            f(v0[1]) - f(org[1]),
+            f(v0[2]) - f(org[2]),
+        );
+        let num = nx * ax + ny * ay + nz * az;
+        let on_plane = num.abs() <= self.noise * l1(ax, ay, az);
+        let q = num / den;
+        let t = if on_plane { 0.0 } else { q };
+        plane.then_some(t)
+    }
 }
 
 /// `|x| + |y| + |z|`, summed in that order.
@@ -749,6 +827,61 @@ mod tests {
             }
         }
         assert!(skipped > 500 && clamped > 1000, "{skipped} {clamped}");
+    }
+
+    #[test]
+    fn plane_t_lanes_equal_the_scalar_plane_t_bitwise() {
+        // Rays through, beside and in the plane of grid-snapped, sliver and
+        // degenerate triangles (the clamp's and the no-plane paths), for
+        // every lane mask from one lane to all eight.
+        let mut rng = crate::test_rng::Rng(0x2545_F491_4F6C_DD1D);
+        let mut c = |rng: &mut crate::test_rng::Rng| {
+            let x = rng.f() * 4.0 - 2.0;
+            if rng.f() < 0.5 {
+                (x * 4.0).floor() / 4.0
+            } else {
+                x
+            }
+        };
+        let (mut clamped, mut nan) = (0, 0);
+        for round in 0..20_000u32 {
+            let mut v: [[f32; 3]; 3] = core::array::from_fn(|_| [c(&mut rng), c(&mut rng), 0.0]);
+            for p in &mut v {
+                p[2] = if round % 4 == 0 { 0.0 } else { c(&mut rng) };
+            }
+            if round % 7 == 0 {
+                v[2] = v[1]; // degenerate: no plane
+            }
+            let tri = Triangle { v };
+            let org: [[f32; 8]; 3] = core::array::from_fn(|a| {
+                core::array::from_fn(|_| {
+                    if round % 4 == 0 && a == 2 {
+                        0.0
+                    } else {
+                        c(&mut rng)
+                    }
+                })
+            });
+            let dir: [[f32; 8]; 3] =
+                core::array::from_fn(|_| core::array::from_fn(|_| c(&mut rng)));
+            let lanes = (round.wrapping_mul(0x9E37_79B9) >> 24) | 1 << (round % 8);
+            let mut t = [7.0f32; 8];
+            plane_t_lanes(&org, &dir, &tri, lanes, &mut t);
+            for l in 0..8 {
+                let want = if lanes >> l & 1 == 1 {
+                    let at = |c: &[[f32; 8]; 3]| [c[0][l], c[1][l], c[2][l]];
+                    let want = plane_t(&at(&org), &at(&dir), &tri);
+                    let t = Plane::of(&tri).ray_t(&tri.v[0], &at(&org), &at(&dir));
+                    nan += usize::from(want.is_nan());
+                    clamped += usize::from(t.is_some_and(|t| t as f32 != want));
+                    want
+                } else {
+                    7.0
+                };
+                assert_eq!(t[l].to_bits(), want.to_bits(), "round {round} lane {l}");
+            }
+        }
+        assert!(clamped > 100 && nan > 100, "{clamped} {nan}");
     }
 
     #[test]

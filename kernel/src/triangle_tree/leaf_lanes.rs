@@ -96,12 +96,19 @@ impl<'r, V: Lanes<N>, const N: usize> LeafRay<'r, V, N> {
         let [vx, vy, vz] = &rows;
         let (a, b, c) = (self.rel(vx), self.rel(vy), self.rel(vz));
         let sr = self.sr;
-        let exact_t = |l: usize| {
-            let tri = prims.get(l).and_then(|&p| tris.get(p as usize));
-            tri.map_or(f32::NAN, |tri| plane_t(&sr.org, &sr.dir, tri))
-        };
         let (tmin, tmax) = (V::splat(tmin), V::splat(tmax));
-        watertight::<V, N, ANY>(a, b, c, self.shear[2], live, tmin, tmax, exact_t)
+        let mut win = watertight::<V, N, ANY>(a, b, c, self.shear[2], live, tmin, tmax)?;
+        // Usually one lane (the window settles the others): one at a time.
+        let mut exact = win.exact;
+        while exact != 0 {
+            let l = exact.trailing_zeros() as usize;
+            exact &= exact - 1;
+            let tri = prims.get(l).and_then(|&p| tris.get(p as usize));
+            if let Some(x) = win.t.get_mut(l) {
+                *x = tri.map_or(f32::NAN, |tri| plane_t(&sr.org, &sr.dir, tri));
+            }
+        }
+        win.hits(tmin, tmax)
     }
 
     /// A vertex row relative to the origin, sheared so the ray is +z: the

@@ -10,7 +10,7 @@ use super::lane_rays::LaneRays;
 use crate::geometry::Axis;
 use crate::lanes::Lanes;
 use crate::triangle::lanes::{watertight, LaneHits};
-use crate::triangle::{plane_t, Triangle};
+use crate::triangle::{plane_t_lanes, Triangle};
 
 impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
     /// Vertex `p` relative to each lane's origin, sheared so the lane's
@@ -64,14 +64,12 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
             self.shear_vertex(k, p1),
             self.shear_vertex(k, p2),
         );
-        let exact_t = |l: usize| {
-            let at = |v: &V| v.lane(l);
-            plane_t(
-                &self.org.each_ref().map(at),
-                &self.dir.each_ref().map(at),
-                tri,
-            )
-        };
-        watertight::<V, N, ANY>(a, b, c, self.shear[2], live, self.tmin, tmax, exact_t)
+        let tmin = self.tmin;
+        let mut win = watertight::<V, N, ANY>(a, b, c, self.shear[2], live, tmin, tmax)?;
+        if win.exact != 0 {
+            let (org, dir) = (self.org.map(V::to_array), self.dir.map(V::to_array));
+            plane_t_lanes(&org, &dir, tri, win.exact, &mut win.t);
+        }
+        win.hits(tmin, tmax)
     }
 }

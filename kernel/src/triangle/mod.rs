@@ -355,15 +355,11 @@ pub(crate) const WELL_SHAPED: f32 = 16.0;
 /// `n·(v0 - org) / n·dir` with `n = (v1 - v0) × (v2 - v0)`, in `f64`
 /// from the `f32` inputs, rounded once to `f32`.
 ///
-/// A difference of two `f32` is exact in `f64` (for exponents up to 29
-/// apart; else rounded once); each normal component rounds two products
-/// and a difference, a dot product three products and two sums, so the
-/// numerator is off by at most about `2^-50 · |e1|₁ |e2|₁ |v0 - org|₁` and
-/// the denominator by `2^-50 · |e1|₁ |e2|₁ |dir|₁`. Within `2^-48` of those
-/// (four times the bounds) they are taken as zero: a zero numerator is an
-/// origin on the plane, and `t` is `+0`; a zero denominator is a ray in
-/// the plane or a degenerate triangle (whose normal is rounding noise),
-/// and `t` is NaN: no hit.
+/// Within [`noise_bound`] of zero the numerator is taken as zero: the
+/// origin lies on the plane within the formula's `f64` rounding, and `t`
+/// is `+0`; so is the denominator: the ray runs in the plane, or the
+/// triangle is degenerate (its normal is rounding noise), and `t` is NaN:
+/// no hit.
 #[inline]
 #[must_use]
 pub(crate) fn plane_t(org: &[f32; 3], dir: &[f32; 3], tri: &Triangle) -> f32 {
@@ -390,11 +386,11 @@ pub(crate) fn plane_t(org: &[f32; 3], dir: &[f32; 3], tri: &Triangle) -> f32 {
         e1z * e2x - e1x * e2z,
         e1x * e2y - e1y * e2x,
     );
-    let noise = l1(e1x, e1y, e1z) * l1(e2x, e2y, e2z) * PLANE_NOISE;
+    let (mx, my, mz) = normal_magnitudes((e1x, e1y, e1z), (e2x, e2y, e2z));
     let (dx, dy, dz) = (f(dir[0]), f(dir[1]), f(dir[2]));
     let den = nx * dx + ny * dy + nz * dz;
     // A NaN bound is no plane either.
-    let plane = den.abs() > noise * l1(dx, dy, dz);
+    let plane = den.abs() > noise_bound((mx, my, mz), (dx, dy, dz));
     if !plane {
         return f32::NAN;
     }
@@ -404,7 +400,7 @@ pub(crate) fn plane_t(org: &[f32; 3], dir: &[f32; 3], tri: &Triangle) -> f32 {
         f(v0[2]) - f(org[2]),
     );
     let num = nx * ax + ny * ay + nz * az;
-    let t = if num.abs() <= noise * l1(ax, ay, az) {
+    let t = if num.abs() <= noise_bound((mx, my, mz), (ax, ay, az)) {
         0.0
     } else {
         num / den
@@ -424,10 +420,36 @@ pub(crate) fn plane_t(org: &[f32; 3], dir: &[f32; 3], tri: &Triangle) -> f32 {
     box_clamp(t, tri, org, dir)
 }
 
-/// `|x| + |y| + |z|`, summed in that order.
+/// Each component of the normal `e1 × e2` with its two products' magnitudes
+/// summed, `(|e1y e2z| + |e1z e2y|, ...)`: what that component's rounding
+/// scales with.
 #[inline(always)]
-fn l1(x: f64, y: f64, z: f64) -> f64 {
-    x.abs() + y.abs() + z.abs()
+pub(crate) fn normal_magnitudes(
+    (e1x, e1y, e1z): (f64, f64, f64),
+    (e2x, e2y, e2z): (f64, f64, f64),
+) -> (f64, f64, f64) {
+    (
+        (e1y * e2z).abs() + (e1z * e2y).abs(),
+        (e1z * e2x).abs() + (e1x * e2z).abs(),
+        (e1x * e2y).abs() + (e1y * e2x).abs(),
+    )
+}
+
+/// [`plane_t`]'s zero threshold for a dot product `n·a` of the normal with
+/// `a`: [`PLANE_NOISE`] `· Σ m_i |a_i|`, `m` the [`normal_magnitudes`].
+///
+/// Each normal component is off by at most `2^-51 m_i` (two rounded
+/// products and their rounded difference, from differences of `f32` that
+/// are exact or rounded once), each term `n_i a_i` by `1.5 · 2^-51 m_i
+/// |a_i|`, and the two sums add `2^-52` of `Σ m_i |a_i|`: the dot product
+/// is off by at most `2^-50 Σ m_i |a_i|`, a quarter of this. Bounded per
+/// component, not by `|e1|₁ |e2|₁ |a|₁`: for a sliver whose long edges
+/// run along one axis, that product pairs the long edges' product with
+/// the long axis's `|a|`, which no term of the dot product does, and a
+/// hit 0.875 along the ray was taken for an origin on the plane.
+#[inline(always)]
+pub(crate) fn noise_bound((mx, my, mz): (f64, f64, f64), (ax, ay, az): (f64, f64, f64)) -> f64 {
+    PLANE_NOISE * (mx * ax.abs() + my * ay.abs() + mz * az.abs())
 }
 
 /// The triangle's box on axis `a`, `(min, max)` of its vertices'
@@ -516,7 +538,16 @@ fn box_clamp(t: f64, tri: &Triangle, org: &[f32; 3], dir: &[f32; 3]) -> f32 {
     } else {
         t
     };
-    t as f32
+    // A `t` behind the origin that rounds to `-0` would pass `tmin = 0`:
+    // the largest negative `f32` keeps it behind (a ray spawned one ulp off
+    // a surface and leaving it). Only here: `hit_inside_box` leaves every
+    // `t` below the normal range, zero aside, to this clamp.
+    let t32 = t as f32;
+    if t < 0.0 && t32 == 0.0 {
+        -f32::from_bits(1)
+    } else {
+        t32
+    }
 }
 
 /// A triangle box's extent `[lo, hi]` on one axis widened by

@@ -98,9 +98,11 @@ pub(crate) fn watertight<V: Lanes<N>, const N: usize, const ANY: bool>(
         }
     }
     let t = V::from_array(t);
-    // The f64 t's verdict: within [tmin, tmax] and finite.
+    // The f64 t's verdict, as `exact_t_hits`: within [tmin, tmax], finite
+    // and within the window (a NaN window holds every t).
     let ok = t.ge_mask(tmin) & t.le_mask(tmax) & t.abs().lt_mask(inf);
-    hit &= ok.bits() | sure;
+    let outside = t.lt_mask(lo) | t.gt_mask(hi);
+    hit &= (ok.bits() & !outside.bits()) | sure;
     (hit != 0).then_some(LaneHits { hit, t, v, w, det })
 }
 

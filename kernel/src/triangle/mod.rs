@@ -29,8 +29,10 @@
 //!    `tmin <= 0` hits it at `t = 0`.
 //!
 //! The window is wide enough (16 times the error the analysis bounds) that
-//! it never rejects a triangle the `f64` `t` would accept: the answer is
-//! the one the `f64` `t` gives, whatever the order triangles are tested in.
+//! it holds the `f64` `t` of every hit whose point lies in the triangle's
+//! box; a `t` outside it is no hit ([`exact_t_hits`]). So the answer is
+//! one function of the window and the `f64` `t`, whatever `[tmin, tmax]`
+//! and the order triangles are tested in.
 //!
 //! # Coordinate range
 //! The edge functions are products of coordinate differences in `f32`; they
@@ -209,13 +211,14 @@ impl ShearedRay {
     #[must_use]
     pub(crate) fn intersect(&self, tri: &Triangle, tmin: f32, tmax: f32) -> Option<TriangleHit> {
         let (e, (t_est, slack, _)) = self.edges(tri)?;
+        let (lo, hi) = (t_est - slack, t_est + slack);
         // Clearly outside [tmin, tmax]: no f64 t needed. A NaN estimate
         // rejects nothing.
-        if t_est + slack < tmin || t_est - slack > tmax {
+        if hi < tmin || lo > tmax {
             return None;
         }
         let t = plane_t(&self.org, &self.dir, tri);
-        (t >= tmin && t <= tmax && t.is_finite()).then_some(TriangleHit { t, ..e })
+        exact_t_hits(t, (lo, hi), tmin, tmax).then_some(TriangleHit { t, ..e })
     }
 
     /// Does `tri` hit this ray within `[tmin, tmax]`? The answer
@@ -235,7 +238,7 @@ impl ShearedRay {
             return true;
         }
         let t = plane_t(&self.org, &self.dir, tri);
-        t >= tmin && t <= tmax && t.is_finite()
+        exact_t_hits(t, (lo, hi), tmin, tmax)
     }
 
     /// The watertight decision: the edge functions and determinant of a
@@ -296,6 +299,23 @@ impl ShearedRay {
             window,
         ))
     }
+}
+
+/// The verdict on [`plane_t`]'s `t` for a triangle whose edge test passed
+/// with the window `(lo, hi)`: finite, within `[tmin, tmax]`, and within
+/// the window (a NaN window holds every `t`).
+///
+/// The window holds every `t` that [`plane_t`] computes before its box
+/// clamp; the clamp moves a `t` whose point lies outside the triangle's
+/// box (an edge test passed by rounding) into the box, possibly outside
+/// the window, and such a `t` is no hit. So the answer is one function of
+/// the window and `t`, and the window's early rejection (outside `[tmin,
+/// tmax]`) only skips work: without this, a triangle rejected by its
+/// window under a tight `tmax` could be hit under a wider one, and the
+/// answer would depend on the order triangles are tested in.
+#[inline(always)]
+pub(crate) fn exact_t_hits(t: f32, (lo, hi): (f32, f32), tmin: f32, tmax: f32) -> bool {
+    t >= tmin && t <= tmax && t.is_finite() && !(t < lo || t > hi)
 }
 
 /// The window's scale on the sheared shape's conditioning, `2^-12`: the
@@ -703,6 +723,26 @@ mod tests {
         assert!(!closest_hit_brute(&[t], &ray([0.0, 0.0, -5.0], [0.0, 0.0, 1.0])).is_hit());
         let line = tri([0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [2.0, 2.0, 0.0]);
         assert!(!closest_hit_brute(&[line], &ray([1.0, 1.0, 1.0], [0.0, 0.0, -1.0])).is_hit());
+    }
+
+    #[test]
+    fn exact_t_outside_its_window_is_no_hit() {
+        // A t that the box clamp moved out of the window is no hit, in
+        // any [tmin, tmax]: the window's early rejection agrees with it.
+        let w = (0.874, 0.876);
+        assert!(exact_t_hits(0.875, w, 0.0, f32::INFINITY));
+        assert!(!exact_t_hits(0.325, w, 0.0, f32::INFINITY));
+        assert!(!exact_t_hits(0.325, w, 0.0, 0.5));
+        assert!(!exact_t_hits(0.875, w, 0.0, 0.5));
+        // An overflowed window (NaN or infinite) holds every t.
+        assert!(exact_t_hits(0.325, (f32::NAN, f32::NAN), 0.0, 1.0));
+        assert!(exact_t_hits(
+            0.325,
+            (f32::NEG_INFINITY, f32::INFINITY),
+            0.0,
+            1.0
+        ));
+        assert!(!exact_t_hits(f32::NAN, (f32::NAN, f32::NAN), 0.0, 1.0));
     }
 
     #[test]

@@ -126,3 +126,19 @@ fn tree_vs_brute_sah_hit_at_t0_outside_the_scene_in_a_huge_triangles_margin() {
         "../fuzz/regressions/tree_vs_brute/sah_hit_at_t0_outside_the_scene_in_a_huge_triangles_margin"
     ));
 }
+
+/// Found by `tree_vs_brute` in a CI run: a sliver whose long edges (8e17
+/// and 1.4e17) run along z and y, lying in the plane x = -5.25; the ray
+/// from (3.5, 8.75, 9.5) meets it at t = 0.875. The plane's numerator was
+/// taken for zero (an origin on the plane) by a bound that paired the long
+/// edges' product with the origin's distance along z, so `t` snapped to 0
+/// and the box clamp moved it to 0.325, while the `f32` window put it at
+/// 0.875 and rejected it once brute force's `tmax` was below: the tree,
+/// testing it first, reported it. The zero threshold is now bounded per
+/// component of the normal.
+#[test]
+fn tree_vs_brute_sah_hits_sliver_snapped_onto_the_origin_plane() {
+    checks::tree_vs_brute(include_bytes!(
+        "../fuzz/regressions/tree_vs_brute/sah_hits_sliver_snapped_onto_the_origin_plane"
+    ));
+}

@@ -74,11 +74,13 @@
 //! - **Accurate `t`**: the watertight edge test decides hit or miss (no
 //!   ray slips through a shared edge or vertex of a closed mesh); `t` is
 //!   the plane's `n·(v0 - o) / n·d` computed in `f64` and rounded once, so
-//!   `|t - t_exact| <= 2^-24 |t| + 2^-47 |e1|₁ |e2|₁ (|v0 - o|₁ + |t| |d|₁)
-//!   / |n·d|` (`e1, e2` the triangle's edges from `v0`, `n = e1 × e2`): an
-//!   ulp or two wherever the hit is well conditioned. A ray whose origin
-//!   lies on a triangle's plane (within that bound) gets `t = 0` for it, so
-//!   a ray starting on a triangle with `tmin <= 0` hits it at `t = 0`.
+//!   `|t - t_exact| <= 2^-24 |t| + 2^-47 m·(|v0 - o| + |t| |d|) / |n·d|`
+//!   (`e1, e2` the triangle's edges from `v0`, `n = e1 × e2`, `m` its
+//!   components' product magnitudes, `m_x = |e1y e2z| + |e1z e2y|` and so
+//!   on; `|·|` taken per component): an ulp or two wherever the hit is well
+//!   conditioned. A ray whose origin lies on a triangle's plane (within
+//!   that formula's `f64` rounding) gets `t = 0` for it, so a ray starting
+//!   on a triangle with `tmin <= 0` hits it at `t = 0`.
 //! - **Coordinate range**: vertices and ray origins within `±`[`MAX_COORD`]
 //!   (2^60). The builders refuse triangles outside it; a ray whose origin
 //!   lies outside gets the same answer from tree, packets and brute force

@@ -97,6 +97,7 @@ pub(crate) fn watertight<V: Lanes<N>, const N: usize, const ANY: bool>(
         sure,
         exact: hit & !sure,
         t: t_est.to_array(),
+        window: (lo, hi),
         v,
         w,
         det,
@@ -113,6 +114,8 @@ pub(crate) struct LaneWindow<V, const N: usize> {
     pub(crate) exact: u32,
     /// Each lane's `t`: the estimate, until the caller writes the `f64` `t`.
     pub(crate) t: [f32; N],
+    /// Each lane's window `(lo, hi)`.
+    window: (V, V),
     v: V,
     w: V,
     det: V,
@@ -120,14 +123,17 @@ pub(crate) struct LaneWindow<V, const N: usize> {
 
 impl<V: Lanes<N>, const N: usize> LaneWindow<V, N> {
     /// The lanes hit, once [`LaneWindow::t`] holds the `f64` `t` of the
-    /// lanes in [`LaneWindow::exact`]: that `t` within `[tmin, tmax]` and
-    /// finite (or the lane sure).
+    /// lanes in [`LaneWindow::exact`]: the `f64` t's verdict, as
+    /// [`exact_t_hits`](super::exact_t_hits): within `[tmin, tmax]`, finite
+    /// and within the window (a NaN window holds every t), or the lane sure.
     #[inline(always)]
     pub(crate) fn hits(self, tmin: V, tmax: V) -> Option<LaneHits<V>> {
         let t = V::from_array(self.t);
         let inf = V::splat(f32::INFINITY);
         let ok = t.ge_mask(tmin) & t.le_mask(tmax) & t.abs().lt_mask(inf);
-        let hit = self.hit & (ok.bits() | self.sure);
+        let (lo, hi) = self.window;
+        let outside = t.lt_mask(lo) | t.gt_mask(hi);
+        let hit = self.hit & ((ok.bits() & !outside.bits()) | self.sure);
         (hit != 0).then_some(LaneHits {
             hit,
             t,

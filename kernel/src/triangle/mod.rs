@@ -29,8 +29,10 @@
 //!    `tmin <= 0` hits it at `t = 0`.
 //!
 //! The window is wide enough (16 times the error the analysis bounds) that
-//! it never rejects a triangle the `f64` `t` would accept: the answer is
-//! the one the `f64` `t` gives, whatever the order triangles are tested in.
+//! it holds the `f64` `t` of every hit whose point lies in the triangle's
+//! box; a `t` outside it is no hit ([`exact_t_hits`]). So the answer is
+//! one function of the window and the `f64` `t`, whatever `[tmin, tmax]`
+//! and the order triangles are tested in.
 //!
 //! # Coordinate range
 //! The edge functions are products of coordinate differences in `f32`; they
@@ -209,13 +211,14 @@ impl ShearedRay {
     #[must_use]
     pub(crate) fn intersect(&self, tri: &Triangle, tmin: f32, tmax: f32) -> Option<TriangleHit> {
         let (e, (t_est, slack, _)) = self.edges(tri)?;
+        let (lo, hi) = (t_est - slack, t_est + slack);
         // Clearly outside [tmin, tmax]: no f64 t needed. A NaN estimate
         // rejects nothing.
-        if t_est + slack < tmin || t_est - slack > tmax {
+        if hi < tmin || lo > tmax {
             return None;
         }
         let t = plane_t(&self.org, &self.dir, tri);
-        (t >= tmin && t <= tmax && t.is_finite()).then_some(TriangleHit { t, ..e })
+        exact_t_hits(t, (lo, hi), tmin, tmax).then_some(TriangleHit { t, ..e })
     }
 
     /// Does `tri` hit this ray within `[tmin, tmax]`? The answer
@@ -235,7 +238,7 @@ impl ShearedRay {
             return true;
         }
         let t = plane_t(&self.org, &self.dir, tri);
-        t >= tmin && t <= tmax && t.is_finite()
+        exact_t_hits(t, (lo, hi), tmin, tmax)
     }
 
     /// The watertight decision: the edge functions and determinant of a
@@ -298,6 +301,23 @@ impl ShearedRay {
     }
 }
 
+/// The verdict on [`plane_t`]'s `t` for a triangle whose edge test passed
+/// with the window `(lo, hi)`: finite, within `[tmin, tmax]`, and within
+/// the window (a NaN window holds every `t`).
+///
+/// The window holds every `t` that [`plane_t`] computes before its box
+/// clamp; the clamp moves a `t` whose point lies outside the triangle's
+/// box (an edge test passed by rounding) into the box, possibly outside
+/// the window, and such a `t` is no hit. So the answer is one function of
+/// the window and `t`, and the window's early rejection (outside `[tmin,
+/// tmax]`) only skips work: without this, a triangle rejected by its
+/// window under a tight `tmax` could be hit under a wider one, and the
+/// answer would depend on the order triangles are tested in.
+#[inline(always)]
+pub(crate) fn exact_t_hits(t: f32, (lo, hi): (f32, f32), tmin: f32, tmax: f32) -> bool {
+    t >= tmin && t <= tmax && t.is_finite() && !(t < lo || t > hi)
+}
+
 /// The window's scale on the sheared shape's conditioning, `2^-12`: the
 /// analysis below bounds the error by `2^-16.2` of that term.
 const WINDOW_SHAPE: f32 = 1.0 / 4096.0;
@@ -355,15 +375,11 @@ pub(crate) const WELL_SHAPED: f32 = 16.0;
 /// `n·(v0 - org) / n·dir` with `n = (v1 - v0) × (v2 - v0)`, in `f64`
 /// from the `f32` inputs, rounded once to `f32`.
 ///
-/// A difference of two `f32` is exact in `f64` (for exponents up to 29
-/// apart; else rounded once); each normal component rounds two products
-/// and a difference, a dot product three products and two sums, so the
-/// numerator is off by at most about `2^-50 · |e1|₁ |e2|₁ |v0 - org|₁` and
-/// the denominator by `2^-50 · |e1|₁ |e2|₁ |dir|₁`. Within `2^-48` of those
-/// (four times the bounds) they are taken as zero: a zero numerator is an
-/// origin on the plane, and `t` is `+0`; a zero denominator is a ray in
-/// the plane or a degenerate triangle (whose normal is rounding noise),
-/// and `t` is NaN: no hit.
+/// Within [`noise_bound`] of zero the numerator is taken as zero: the
+/// origin lies on the plane within the formula's `f64` rounding, and `t`
+/// is `+0`; so is the denominator: the ray runs in the plane, or the
+/// triangle is degenerate (its normal is rounding noise), and `t` is NaN:
+/// no hit.
 #[inline]
 #[must_use]
 pub(crate) fn plane_t(org: &[f32; 3], dir: &[f32; 3], tri: &Triangle) -> f32 {
@@ -438,11 +454,11 @@ pub(crate) fn plane_t_lanes<const N: usize>(
 }
 
 /// A triangle's plane as [`plane_t`] forms it: the normal `n = (v1 - v0)
-/// × (v2 - v0)` in `f64` and the zero threshold `noise`.
+/// × (v2 - v0)` in `f64` and its [`normal_magnitudes`] `m`.
 #[derive(Clone, Copy)]
 struct Plane {
     n: (f64, f64, f64),
-    noise: f64,
+    m: (f64, f64, f64),
 }
 
 impl Plane {
@@ -473,7 +489,7 @@ impl Plane {
                 e1z * e2x - e1x * e2z,
                 e1x * e2y - e1y * e2x,
             ),
-            noise: l1(e1x, e1y, e1z) * l1(e2x, e2y, e2z) * PLANE_NOISE,
+            m: normal_magnitudes((e1x, e1y, e1z), (e2x, e2y, e2z)),
         }
     }
 
@@ -488,24 +504,50 @@ impl Plane {
         let (dx, dy, dz) = (f(dir[0]), f(dir[1]), f(dir[2]));
         let den = nx * dx + ny * dy + nz * dz;
         // A NaN bound is no plane either.
-        let plane = den.abs() > self.noise * l1(dx, dy, dz);
+        let plane = den.abs() > noise_bound(self.m, (dx, dy, dz));
         let (ax, ay, az) = (
             f(v0[0]) - f(org[0]),
             f(v0[1]) - f(org[1]),
             f(v0[2]) - f(org[2]),
         );
         let num = nx * ax + ny * ay + nz * az;
-        let on_plane = num.abs() <= self.noise * l1(ax, ay, az);
+        let on_plane = num.abs() <= noise_bound(self.m, (ax, ay, az));
         let q = num / den;
         let t = if on_plane { 0.0 } else { q };
         plane.then_some(t)
     }
 }
 
-/// `|x| + |y| + |z|`, summed in that order.
+/// Each component of the normal `e1 × e2` with its two products' magnitudes
+/// summed, `(|e1y e2z| + |e1z e2y|, ...)`: what that component's rounding
+/// scales with.
 #[inline(always)]
-fn l1(x: f64, y: f64, z: f64) -> f64 {
-    x.abs() + y.abs() + z.abs()
+pub(crate) fn normal_magnitudes(
+    (e1x, e1y, e1z): (f64, f64, f64),
+    (e2x, e2y, e2z): (f64, f64, f64),
+) -> (f64, f64, f64) {
+    (
+        (e1y * e2z).abs() + (e1z * e2y).abs(),
+        (e1z * e2x).abs() + (e1x * e2z).abs(),
+        (e1x * e2y).abs() + (e1y * e2x).abs(),
+    )
+}
+
+/// [`plane_t`]'s zero threshold for a dot product `n·a` of the normal with
+/// `a`: [`PLANE_NOISE`] `· Σ m_i |a_i|`, `m` the [`normal_magnitudes`].
+///
+/// Each normal component is off by at most `2^-51 m_i` (two rounded
+/// products and their rounded difference, from differences of `f32` that
+/// are exact or rounded once), each term `n_i a_i` by `1.5 · 2^-51 m_i
+/// |a_i|`, and the two sums add `2^-52` of `Σ m_i |a_i|`: the dot product
+/// is off by at most `2^-50 Σ m_i |a_i|`, a quarter of this. Bounded per
+/// component, not by `|e1|₁ |e2|₁ |a|₁`: for a sliver whose long edges
+/// run along one axis, that product pairs the long edges' product with
+/// the long axis's `|a|`, which no term of the dot product does, and a
+/// hit 0.875 along the ray was taken for an origin on the plane.
+#[inline(always)]
+pub(crate) fn noise_bound((mx, my, mz): (f64, f64, f64), (ax, ay, az): (f64, f64, f64)) -> f64 {
+    PLANE_NOISE * (mx * ax.abs() + my * ay.abs() + mz * az.abs())
 }
 
 /// The triangle's box on axis `a`, `(min, max)` of its vertices'
@@ -594,7 +636,16 @@ fn box_clamp(t: f64, tri: &Triangle, org: &[f32; 3], dir: &[f32; 3]) -> f32 {
     } else {
         t
     };
-    t as f32
+    // A `t` behind the origin that rounds to `-0` would pass `tmin = 0`:
+    // the largest negative `f32` keeps it behind (a ray spawned one ulp off
+    // a surface and leaving it). Only here: `hit_inside_box` leaves every
+    // `t` below the normal range, zero aside, to this clamp.
+    let t32 = t as f32;
+    if t < 0.0 && t32 == 0.0 {
+        -f32::from_bits(1)
+    } else {
+        t32
+    }
 }
 
 /// A triangle box's extent `[lo, hi]` on one axis widened by
@@ -750,6 +801,26 @@ mod tests {
         assert!(!closest_hit_brute(&[t], &ray([0.0, 0.0, -5.0], [0.0, 0.0, 1.0])).is_hit());
         let line = tri([0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [2.0, 2.0, 0.0]);
         assert!(!closest_hit_brute(&[line], &ray([1.0, 1.0, 1.0], [0.0, 0.0, -1.0])).is_hit());
+    }
+
+    #[test]
+    fn exact_t_outside_its_window_is_no_hit() {
+        // A t that the box clamp moved out of the window is no hit, in
+        // any [tmin, tmax]: the window's early rejection agrees with it.
+        let w = (0.874, 0.876);
+        assert!(exact_t_hits(0.875, w, 0.0, f32::INFINITY));
+        assert!(!exact_t_hits(0.325, w, 0.0, f32::INFINITY));
+        assert!(!exact_t_hits(0.325, w, 0.0, 0.5));
+        assert!(!exact_t_hits(0.875, w, 0.0, 0.5));
+        // An overflowed window (NaN or infinite) holds every t.
+        assert!(exact_t_hits(0.325, (f32::NAN, f32::NAN), 0.0, 1.0));
+        assert!(exact_t_hits(
+            0.325,
+            (f32::NEG_INFINITY, f32::INFINITY),
+            0.0,
+            1.0
+        ));
+        assert!(!exact_t_hits(f32::NAN, (f32::NAN, f32::NAN), 0.0, 1.0));
     }
 
     #[test]

@@ -18,7 +18,7 @@
 //! (and reports `t = 0`); the error bound includes that distance, so a
 //! spawned ray over `[0, tmax]` never hits the triangle it leaves.
 
-use super::{Triangle, PLANE_NOISE};
+use super::{noise_bound, normal_magnitudes, Triangle};
 use crate::geometry::{Hit, Ray};
 
 /// `γ7 = 7u / (1 - 7u)` for `f32` (`u = 2^-24`): the bound on seven
@@ -129,10 +129,14 @@ fn plane_of(tri: &Triangle, p: &[f32; 3]) -> ([f32; 3], f32) {
         return ([0.0; 3], 0.0);
     }
     let unit = glam::Vec3::from_array(n.map(|c| (c / big) as f32)).normalize();
-    let l1 = |x: [f64; 3]| x[0].abs() + x[1].abs() + x[2].abs();
-    let a = core::array::from_fn(|i| v[0][i] - f64::from(p[i]));
+    let m = normal_magnitudes((e1[0], e1[1], e1[2]), (e2[0], e2[1], e2[2]));
+    let a = (
+        v[0][0] - f64::from(p[0]),
+        v[0][1] - f64::from(p[1]),
+        v[0][2] - f64::from(p[2]),
+    );
     // |n| >= the largest component.
-    let snap = 4.0 * PLANE_NOISE * l1(e1) * l1(e2) * l1(a) / big;
+    let snap = 4.0 * noise_bound(m, a) / big;
     (unit.to_array(), snap as f32)
 }
 

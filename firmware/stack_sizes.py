@@ -8,8 +8,14 @@ and `-T stack-sizes.x` (which keeps the `.stack_sizes` section: one
 (function address, frame bytes) pair per function the compiler generated).
 OBJDUMP is llvm-objdump, whose disassembly gives the call graph (`bl`, and
 `b`/`b.w` to another function's start: a tail call). An entry point's use
-is its frame plus the largest use among its callees, over every path;
-the deepest path is printed with each function's frame in parentheses.
+is its frame plus the largest use among its callees, over every path,
+except that a tail call's callee runs in the caller's place: the callee
+returns through `lr` straight to the caller's caller, so the caller has
+released its frame before the branch (the epilogue precedes it), and the
+callee's use counts from the caller's entry, without the caller's frame.
+The deepest path is printed with each function's frame in parentheses,
+"tail call:" before a function reached by one (its caller's frame then
+counts for nothing below it).
 
 Functions without an entry (compiler-builtins, precompiled without the
 flag) get their frame from their prologue (`push`, `vpush`, `sub sp`), and
@@ -56,6 +62,7 @@ def stack_sizes(path):
 
 FUNC = re.compile(r"^([0-9a-f]+) <(.+)>:$")
 CALL = re.compile(r"^\s*[0-9a-f]+:\s+(bl|b|b\.w|b\.n)\s+0x([0-9a-f]+)\b")
+TAIL = {"b", "b.w", "b.n"}
 INDIRECT = re.compile(r"^\s*[0-9a-f]+:\s+(blx|bx)\s+(r\d+|ip|sp)\b")
 PUSH = re.compile(r"^\s*[0-9a-f]+:\s+(push(?:\.w)?|vpush)\s+\{(.*)\}")
 SUB_SP = re.compile(r"^\s*[0-9a-f]+:\s+sub(?:\.w)?\s+sp,\s+(?:sp,\s+)?#(0x[0-9a-f]+|\d+)")
@@ -63,8 +70,8 @@ SUB_SP = re.compile(r"^\s*[0-9a-f]+:\s+sub(?:\.w)?\s+sp,\s+(?:sp,\s+)?#(0x[0-9a-
 
 def functions(image, objdump):
     """{address: [demangled name, callee addresses, has indirect call,
-    prologue frame bytes]}; callees are calls and tail calls (branches to
-    another function's first instruction)."""
+    prologue frame bytes, tail callee addresses]}; callees are calls, tail
+    callees branches to another function's first instruction."""
     out = subprocess.run([objdump, "-d", "-C", "--no-show-raw-insn", image], check=True,
                          capture_output=True, text=True).stdout
     funcs, current, targets = {}, None, {}
@@ -72,7 +79,7 @@ def functions(image, objdump):
         m = FUNC.match(line)
         if m:
             current = int(m.group(1), 16)
-            funcs[current] = [m.group(2), set(), False, 0]
+            funcs[current] = [m.group(2), set(), False, 0, set()]
             targets[current] = set()
             continue
         if current is None:
@@ -80,7 +87,7 @@ def functions(image, objdump):
         f = funcs[current]
         m = CALL.match(line)
         if m:
-            targets[current].add(int(m.group(2), 16))
+            targets[current].add((int(m.group(2), 16), m.group(1) in TAIL))
             continue
         m = INDIRECT.match(line)
         if m:
@@ -95,7 +102,9 @@ def functions(image, objdump):
         if m:
             f[3] += int(m.group(1), 0)
     for addr, ts in targets.items():
-        funcs[addr][1] = {t for t in ts if t in funcs and t != addr}
+        calls = {t for t, tail in ts if t in funcs and t != addr}
+        funcs[addr][1] = {t for t in calls if (t, False) in ts}
+        funcs[addr][4] = {t for t in calls if (t, True) in ts}
     return funcs
 
 
@@ -119,11 +128,16 @@ def main():
         if addr in path:
             sys.exit("recursion: " + " -> ".join(funcs[a][0] for a in path + [addr]))
         if addr not in memo:
-            name, callees, indirect, _ = funcs[addr]
+            name, callees, indirect, _, tails = funcs[addr]
             if indirect:
                 sys.exit(f"{name} makes an indirect call: its stack use has no static bound here")
             deepest = max((use(c, path + [addr]) for c in callees), default=(0, []))
-            memo[addr] = (frame(addr) + deepest[0], [f"{name} ({frame(addr)})"] + deepest[1])
+            own = (frame(addr) + deepest[0], [f"{name} ({frame(addr)})"] + deepest[1])
+            for c in tails:
+                total, rest = use(c, path + [addr])
+                if total > own[0]:
+                    own = (total, [f"{name} ({frame(addr)})", "tail call: " + rest[0]] + rest[1:])
+            memo[addr] = own
         return memo[addr]
 
     by_name = {f[0]: a for a, f in funcs.items()}

@@ -906,7 +906,7 @@ mod tests {
         // degenerate triangles (the clamp's and the no-plane paths), for
         // every lane mask from one lane to all eight.
         let mut rng = crate::test_rng::Rng(0x2545_F491_4F6C_DD1D);
-        let mut c = |rng: &mut crate::test_rng::Rng| {
+        let c = |rng: &mut crate::test_rng::Rng| {
             let x = rng.f() * 4.0 - 2.0;
             if rng.f() < 0.5 {
                 (x * 4.0).floor() / 4.0

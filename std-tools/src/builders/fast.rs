@@ -121,6 +121,10 @@ fn depth_first(boxes: &[Bounds], bounds: Bounds, p: &FastParams) -> BuiltTree {
         .filter(|(b, _)| b.min[0] <= b.max[0])
         .map(|(b, id)| Item::new(b, id))
         .collect();
+    // Room for the below sides written past the cells' ends, so growing
+    // never copies: the peak is 2.02x the boxes on the top level over
+    // 10,000 instances, 2.08x on the bunny. Only what is used is filled.
+    items.reserve(2 * items.len());
     let bins = p.bins.clamp(2, MAX_BINS);
     let mut out = BuiltTree {
         nodes: vec![Node::EMPTY_LEAF],
@@ -167,7 +171,7 @@ fn depth_first(boxes: &[Bounds], bounds: Bounds, p: &FastParams) -> BuiltTree {
             (0, n, start)
         } else {
             if items.len() < end + n {
-                items.resize((end + n).max(2 * items.len()), Item::NONE);
+                items.resize(end + n, Item::NONE);
             }
             let (cur, spare) = items[start..end + n].split_at_mut(n);
             let (a, b) = match axis {
@@ -303,39 +307,20 @@ impl Counts {
             cost.empty_factor as f32,
         );
         let n = items.len() as u32;
-        // Boxes below and above each boundary `k + 1`: running sums of the
-        // two sets' starts and ends; then the counters are cleared. Counts
-        // stay below 2^31, so `i32` lanes convert to `f32` as the `u32`
-        // counts would, in one vector instruction.
+        // One pass over the bins four at a time: the boxes below and above
+        // boundaries `k + 1` as running sums of the two sets' starts and
+        // ends (the counters cleared as they are read), those four
+        // boundaries priced as one vector, each lane the scalar formula's
+        // IEEE operations in the same order, and the first cheapest kept.
+        // Counts stay below 2^31, so `i32` lanes convert to `f32` as the
+        // `u32` counts would. Lanes from `last` on are past the cell and
+        // never taken. (Tried: pricing one boundary at a time, 2.4x the
+        // instructions; a scalar loop over arrays the compiler was left to
+        // vectorize: it did not; the counters cleared by `fill`: a call to
+        // `memset` each.)
         let last = bins - 1;
-        let mut below = [[0i32; 4]; MAX_BINS / 4];
-        let mut above = [[0i32; 4]; MAX_BINS / 4];
         let [s0, s1] = &mut self.starts;
         let [e0, e1] = &mut self.ends;
-        let chunks = last.div_ceil(4);
-        let (mut n_below, mut n_ended) = (0u32, 0u32);
-        let sums = below.iter_mut().zip(&mut above);
-        let starts = s0.chunks_exact(4).zip(s1.chunks_exact(4));
-        let ends = e0.chunks_exact(4).zip(e1.chunks_exact(4));
-        // Whole groups of four: lanes from `last` on are past the cell and
-        // never taken.
-        for ((b, a), ((s0, s1), (e0, e1))) in sums.zip(starts.zip(ends)).take(chunks) {
-            for l in 0..4 {
-                n_below += s0[l] + s1[l];
-                n_ended += e0[l] + e1[l];
-                b[l] = n_below as i32;
-                a[l] = (n - n_ended) as i32;
-            }
-        }
-        for counters in [s0, s1, e0, e1] {
-            counters[..bins].fill(0);
-        }
-        // Four boundaries priced at once, each lane the scalar formula's
-        // IEEE operations in the same order. (Tried: pricing inside the
-        // running sums, one boundary at a time, and a scalar loop over
-        // arrays the compiler was left to vectorize: it did not, 2.5x the
-        // instructions.)
-        let mut costs = [[f32::INFINITY; 4]; MAX_BINS / 4];
         let (base, per_bin, bins_f) = (
             f32x4::splat(base),
             f32x4::splat(per_bin),
@@ -343,28 +328,33 @@ impl Counts {
         );
         let (trav, isect) = (f32x4::splat(trav), f32x4::splat(isect));
         let (empty, one, zero) = (f32x4::splat(empty), f32x4::splat(1.0), i32x4::splat(0));
-        for (j, ((c, &b), &a)) in costs
-            .iter_mut()
-            .zip(&below)
-            .zip(&above)
-            .take(chunks)
-            .enumerate()
-        {
+        let (mut n_below, mut n_ended) = (0u32, 0u32);
+        let (mut best_k, mut best) = (0, f32::INFINITY);
+        let starts = s0.chunks_exact_mut(4).zip(s1.chunks_exact_mut(4));
+        let ends = e0.chunks_exact_mut(4).zip(e1.chunks_exact_mut(4));
+        for (j, ((s0, s1), (e0, e1))) in starts.zip(ends).take(last.div_ceil(4)).enumerate() {
+            let (mut b, mut a) = ([0i32; 4], [0i32; 4]);
+            for l in 0..4 {
+                n_below += s0[l] + s1[l];
+                n_ended += e0[l] + e1[l];
+                (s0[l], s1[l], e0[l], e1[l]) = (0, 0, 0, 0);
+                b[l] = n_below as i32;
+                a[l] = (n - n_ended) as i32;
+            }
             let kf = f32x4::new([1.0, 2.0, 3.0, 4.0]) + f32x4::splat((4 * j) as f32);
             let (pb, pa) = (base + per_bin * kf, base + per_bin * (bins_f - kf));
             let (b, a) = (i32x4::new(b), i32x4::new(a));
             let none: f32x4 = bytemuck::cast(b.simd_eq(zero) | a.simd_eq(zero));
             let lambda = none.select(empty, one);
-            *c = (lambda * (trav + isect * (pb * b.round_float() + pa * a.round_float())))
-                .to_array();
-        }
-        let costs = costs.as_flattened();
-        let (mut best_k, mut best) = (0, f32::INFINITY);
-        for (k, &c) in costs[..last].iter().enumerate() {
-            if c < best {
-                (best_k, best) = (k + 1, c);
+            let c = lambda * (trav + isect * (pb * b.round_float() + pa * a.round_float()));
+            for (k, c) in (4 * j..last).zip(c.to_array()) {
+                if c < best {
+                    (best_k, best) = (k + 1, c);
+                }
             }
         }
+        // The last bin when no group of four reached it.
+        (s0[last], s1[last], e0[last], e1[last]) = (0, 0, 0, 0);
         let plane = lo + extent * best_k as f32 / bins as f32;
         (best_k > 0 && plane > lo && plane < hi).then_some((axis, plane, best, span))
     }

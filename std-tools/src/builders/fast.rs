@@ -249,6 +249,61 @@ fn leaf(items: &[Item], prims: &mut Vec<u32>) -> Node {
     }
 }
 
+/// A cell's equal-width bins on its longest axis and the SAH's terms for
+/// pricing their boundaries in `f32`.
+struct Grid {
+    axis: usize,
+    lo: f32,
+    hi: f32,
+    extent: f32,
+    /// Bins per unit length.
+    scale: f32,
+    /// A child's area as a fraction of the cell's at boundary `k`:
+    /// `base + per_bin k` below, `base + per_bin (bins - k)` above.
+    base: f32,
+    per_bin: f32,
+    trav: f32,
+    isect: f32,
+    empty: f32,
+}
+
+impl Grid {
+    /// The grid of `bins` bins over `cell`'s longest axis; `None` for a
+    /// cell flat or NaN on it.
+    fn new(cell: &Bounds, bins: usize, cost: &CostModel) -> Option<Grid> {
+        let ext = |a: usize| cell.max[a] - cell.min[a];
+        let axis = (0..3).fold(0, |b, a| if ext(a) > ext(b) { a } else { b });
+        let (lo, hi) = (cell.min[axis], cell.max[axis]);
+        let extent = hi - lo;
+        if extent.is_nan() || extent <= 0.0 {
+            return None;
+        }
+        // Child areas in closed form: the faces of a cell whose side on
+        // this axis is `l` are 2 (l (u + v) + u v), `u`, `v` the other two;
+        // as a fraction of the cell's, linear in the bin boundary `k`.
+        let (u, v) = (ext((axis + 1) % 3), ext((axis + 2) % 3));
+        let (sum, prod) = (u + v, u * v);
+        let area = 2.0 * (extent * sum + prod);
+        let (base, per_bin) = if area > 0.0 {
+            (2.0 * prod / area, 2.0 * sum * (extent / bins as f32) / area)
+        } else {
+            (1.0, 0.0)
+        };
+        Some(Grid {
+            axis,
+            lo,
+            hi,
+            extent,
+            scale: bins as f32 / extent,
+            base,
+            per_bin,
+            trav: cost.traversal as f32,
+            isect: cost.intersection as f32,
+            empty: cost.empty_factor as f32,
+        })
+    }
+}
+
 /// Bin counters, kept across cells (only the bins used are cleared).
 /// Two sets take alternate items.
 struct Counts {
@@ -278,35 +333,23 @@ impl Counts {
         bins: usize,
         cost: &CostModel,
     ) -> Option<(usize, f32, f32, (f32, f32))> {
-        let ext = |a: usize| cell.max[a] - cell.min[a];
-        let axis = (0..3).fold(0, |b, a| if ext(a) > ext(b) { a } else { b });
-        let (lo, hi) = (cell.min[axis], cell.max[axis]);
-        let extent = hi - lo;
-        if extent.is_nan() || extent <= 0.0 {
-            return None;
-        }
-        let scale = bins as f32 / extent;
+        let Grid {
+            axis,
+            lo,
+            hi,
+            extent,
+            scale,
+            base,
+            per_bin,
+            trav,
+            isect,
+            empty,
+        } = Grid::new(cell, bins, cost)?;
         let span = match axis {
             0 => self.count::<0>(items, lo, scale, bins),
             1 => self.count::<1>(items, lo, scale, bins),
             _ => self.count::<2>(items, lo, scale, bins),
         };
-        // Child areas in closed form: the faces of a cell whose side on
-        // this axis is `l` are 2 (l (u + v) + u v), `u`, `v` the other two;
-        // as a fraction of the cell's, linear in the bin boundary `k`.
-        let (u, v) = (ext((axis + 1) % 3), ext((axis + 2) % 3));
-        let (sum, prod) = (u + v, u * v);
-        let area = 2.0 * (extent * sum + prod);
-        let (base, per_bin) = if area > 0.0 {
-            (2.0 * prod / area, 2.0 * sum * (extent / bins as f32) / area)
-        } else {
-            (1.0, 0.0)
-        };
-        let (trav, isect, empty) = (
-            cost.traversal as f32,
-            cost.intersection as f32,
-            cost.empty_factor as f32,
-        );
         let n = items.len() as u32;
         // One pass over the bins four at a time: the boxes below and above
         // boundaries `k + 1` as running sums of the two sets' starts and
@@ -487,39 +530,19 @@ mod tests {
         bins: usize,
         cost: &CostModel,
     ) -> Option<(usize, f32, f32, (f32, f32))> {
-        let ext = |a: usize| cell.max[a] - cell.min[a];
-        let axis = (0..3).fold(0, |b, a| if ext(a) > ext(b) { a } else { b });
-        let (lo, hi) = (cell.min[axis], cell.max[axis]);
-        let extent = hi - lo;
-        if extent.is_nan() || extent <= 0.0 {
-            return None;
-        }
-        let scale = bins as f32 / extent;
+        let g = Grid::new(cell, bins, cost)?;
         let bin = |x: f32| {
-            let t = min(max((x - lo) * scale - 0.5, 0.0), (bins - 1) as f32);
+            let t = min(max((x - g.lo) * g.scale - 0.5, 0.0), (bins - 1) as f32);
             ((t + ROUND).to_bits() as usize) & (MAX_BINS - 1)
         };
         let (mut starts, mut ends) = ([0u32; MAX_BINS], [0u32; MAX_BINS]);
         let (mut lo_min, mut hi_max) = (f32::INFINITY, f32::NEG_INFINITY);
         for it in items {
-            starts[bin(it.lo(axis))] += 1;
-            ends[bin(it.hi(axis))] += 1;
-            lo_min = min(lo_min, it.lo(axis));
-            hi_max = max(hi_max, it.hi(axis));
+            starts[bin(it.lo(g.axis))] += 1;
+            ends[bin(it.hi(g.axis))] += 1;
+            lo_min = min(lo_min, it.lo(g.axis));
+            hi_max = max(hi_max, it.hi(g.axis));
         }
-        let (u, v) = (ext((axis + 1) % 3), ext((axis + 2) % 3));
-        let (sum, prod) = (u + v, u * v);
-        let area = 2.0 * (extent * sum + prod);
-        let (base, per_bin) = if area > 0.0 {
-            (2.0 * prod / area, 2.0 * sum * (extent / bins as f32) / area)
-        } else {
-            (1.0, 0.0)
-        };
-        let (trav, isect, empty) = (
-            cost.traversal as f32,
-            cost.intersection as f32,
-            cost.empty_factor as f32,
-        );
         let n = items.len() as u32;
         let (mut n_below, mut n_ended) = (0u32, 0u32);
         let (mut best_k, mut best) = (0, f32::INFINITY);
@@ -528,19 +551,27 @@ mod tests {
             n_ended += ends[k];
             let n_above = n - n_ended;
             let kf = (k + 1) as f32;
-            let (pb, pa) = (base + per_bin * kf, base + per_bin * (bins as f32 - kf));
+            let (pb, pa) = (
+                g.base + g.per_bin * kf,
+                g.base + g.per_bin * (bins as f32 - kf),
+            );
             let lambda = if n_below == 0 || n_above == 0 {
-                empty
+                g.empty
             } else {
                 1.0
             };
-            let c = lambda * (trav + isect * (pb * n_below as f32 + pa * n_above as f32));
+            let c = lambda * (g.trav + g.isect * (pb * n_below as f32 + pa * n_above as f32));
             if c < best {
                 (best_k, best) = (k + 1, c);
             }
         }
-        let plane = lo + extent * best_k as f32 / bins as f32;
-        (best_k > 0 && plane > lo && plane < hi).then_some((axis, plane, best, (lo_min, hi_max)))
+        let plane = g.lo + g.extent * best_k as f32 / bins as f32;
+        (best_k > 0 && plane > g.lo && plane < g.hi).then_some((
+            g.axis,
+            plane,
+            best,
+            (lo_min, hi_max),
+        ))
     }
 
     /// The four-lane binning and pricing choose what the scalar scan does,

@@ -25,25 +25,26 @@ fn main() {
     let (meshes, instances) = generated_level(n / 2, (n as f32).sqrt() * 2.0, 1);
     let bounds = mesh_bounds(&meshes).expect("the generated meshes build");
     let (mut best_boxes, mut best_top) = (f64::INFINITY, f64::INFINITY);
-    let (mut nodes, mut refs, mut print, mut cost) = (0, 0, 0u64, 0.0);
+    let mut top = None;
     for _ in 0..50 {
         let t = Instant::now();
         let boxes = world_boxes(&bounds, &instances);
         let t_boxes = t.elapsed().as_secs_f64();
-        let top = build_top_level_with(&boxes, &p);
+        let tree = build_top_level_with(&boxes, &p);
         let t_all = t.elapsed().as_secs_f64();
         best_boxes = best_boxes.min(t_boxes);
         best_top = best_top.min(t_all - t_boxes);
-        cost = kdray_tools::stats::sah_cost(&top.nodes, &top.bounds, p.cost);
-        nodes = top.nodes.len();
-        refs = top.prims.len();
-        // FNV-1a over the laid-out tree: equal prints, the same tree.
-        print = format!("{:?}{:?}", top.nodes, top.prims)
-            .bytes()
-            .fold(0xcbf2_9ce4_8422_2325, |h, b| {
-                (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
-            });
+        top = Some(tree);
     }
+    let top = top.expect("built");
+    let cost = kdray_tools::stats::sah_cost(&top.nodes, &top.bounds, p.cost);
+    let (nodes, refs) = (top.nodes.len(), top.prims.len());
+    // FNV-1a over the laid-out tree: equal prints, the same tree.
+    let print = format!("{:?}{:?}", top.nodes, top.prims)
+        .bytes()
+        .fold(0xcbf2_9ce4_8422_2325, |h, b| {
+            (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
+        });
     println!(
         "{} instances: world boxes {:.3} ms, top level {:.3} ms ({nodes} nodes, {refs} listed, SAH cost {cost:.2}, print {print:016x}), best of 50, {p:?}",
         instances.len(),

@@ -386,8 +386,8 @@ const BLOCK: usize = 256;
 
 /// Whether scattered rays are walked in turns: where the walks' misses can
 /// overlap (an out-of-order core with caches and a prefetch, x86-64 here).
-/// Elsewhere (a microcontroller) turns would only add work and 3 KiB of
-/// stack for their four walks.
+/// Elsewhere (a microcontroller) turns would only add work and 6 KiB of
+/// stack for their eight walks.
 const IN_TURNS: bool = cfg!(target_arch = "x86_64");
 
 /// Whether consecutive rays of `rays` start far apart: on average more

@@ -376,14 +376,8 @@ pub fn scene_blob(data: &[u8]) {
         r.rest().to_vec()
     };
     if mode & 2 == 0 && !bytes.is_empty() {
-        for _ in 0..(r.u8() % 8) {
-            let at = r.u32() as usize % bytes.len();
-            bytes[at] = r.u8();
-        }
-        if mode & 1 == 1 {
-            let sum = blob_checksum(&bytes);
-            bytes[36..40].copy_from_slice(&sum.to_le_bytes());
-        }
+        let edits = r.u8() % 8;
+        overwrite(&mut r, &mut bytes, edits, mode & 1 == 1);
     }
     let blob = Blob::from_bytes(&bytes);
     let Ok(scene) = Scene::from_bytes(blob.as_bytes()) else {
@@ -402,5 +396,103 @@ pub fn scene_blob(data: &[u8]) {
             scene.any_hit_brute(&ray, mask),
             "{ray:?}"
         );
+    }
+}
+
+/// Point trees (breadth-first blob, `kdray::kernel::PointTreeN`): points
+/// from the input (on a coarse grid, so ties and piles are common) built
+/// into a 3-D `f32` or a 2-D `f64` tree; unedited, every query equals
+/// brute force bit for bit; with bytes of the blob overwritten (checksum
+/// resealed when the mode's bit 0 is set), loading returns an error or a
+/// tree, and neither a checked nor an unchecked load ever panics or hangs
+/// in a query.
+pub fn point_blob(data: &[u8]) {
+    let mut r = Bytes::new(data);
+    let mode = r.u8();
+    if mode & 4 == 0 {
+        point_blob_at::<3, f32>(&mut r, mode, |c| c);
+    } else {
+        point_blob_at::<2, f64>(&mut r, mode, f64::from);
+    }
+}
+
+fn point_blob_at<const D: usize, S: kdray::kernel::Scalar>(
+    r: &mut Bytes<'_>,
+    mode: u8,
+    of: impl Fn(f32) -> S,
+) {
+    use kdray::kernel::{knn_brute, Neighbour, PointTreeN};
+    use kdray::tools::blob::write_point_tree;
+    use kdray::tools::points::{build_points, PointParams};
+    let n = usize::from(r.u8()) * 2;
+    let points: Vec<[S; D]> = (0..n)
+        .map(|_| std::array::from_fn(|_| of(f32::from(r.u8() % 8) / 2.0)))
+        .collect();
+    let params = PointParams {
+        leaf_size: usize::from(r.u8() % 16) + 1,
+        ..PointParams::default()
+    };
+    let Ok(built) = build_points(&points, &params) else {
+        return;
+    };
+    let Ok(blob) = write_point_tree(&built) else {
+        return;
+    };
+    let mut bytes = blob.as_bytes().to_vec();
+    let edits = r.u8() % 4;
+    overwrite(r, &mut bytes, edits, mode & 1 == 1);
+    let edited = Blob::from_bytes(&bytes);
+    let queries: Vec<[S; D]> = (0..8)
+        .map(|_| std::array::from_fn(|_| of(r.component())))
+        .collect();
+    let run = |tree: &PointTreeN<'_, D, S>| {
+        let mut out = [Neighbour::NONE; 12];
+        for q in &queries {
+            let _ = tree.nearest(*q);
+            let _ = tree.knn(*q, &mut out[..(r_k(q) % 12) + 1]);
+            tree.for_each_within(*q, of(1.0), |_| {});
+        }
+    };
+    if let Ok(tree) = PointTreeN::<D, S>::from_bytes_unchecked(edited.as_bytes()) {
+        run(&tree);
+    }
+    let Ok(tree) = PointTreeN::<D, S>::from_bytes(edited.as_bytes()) else {
+        assert!(edits > 0, "a freshly built point blob was refused");
+        return;
+    };
+    run(&tree);
+    if edits == 0 {
+        for q in &queries {
+            for k in [1, 4, 12] {
+                let (mut a, mut b) = ([Neighbour::NONE; 12], [Neighbour::NONE; 12]);
+                let na = tree.knn(*q, &mut a[..k]);
+                let nb = knn_brute(&points, *q, S::INFINITY, &mut b[..k]);
+                assert_eq!(na, nb, "{q:?} k={k}");
+                assert_eq!(
+                    a.map(Neighbour::bits),
+                    b.map(Neighbour::bits),
+                    "{q:?} k={k}"
+                );
+            }
+        }
+    }
+}
+
+/// A k for query `q`, from its first coordinate's bits.
+fn r_k<const D: usize, S: kdray::kernel::Scalar>(q: &[S; D]) -> usize {
+    q.first().map_or(0, |c| (c.bits() % 97) as usize)
+}
+
+/// Overwrites `edits` bytes of a blob (non-empty) where the input says,
+/// then reseals its checksum if asked, so the structural checks behind it
+/// are reached.
+fn overwrite(r: &mut Bytes<'_>, bytes: &mut [u8], edits: u8, reseal: bool) {
+    for _ in 0..edits {
+        let at = r.u32() as usize % bytes.len();
+        bytes[at] = r.u8();
+    }
+    if reseal {
+        let sum = blob_checksum(bytes);
+        bytes[36..40].copy_from_slice(&sum.to_le_bytes());
     }
 }

@@ -7,7 +7,9 @@
 mod common;
 
 use common::assert_matches_brute;
-use kdray::kernel::{Ray, Triangle};
+use kdray::kernel::{any_hit_brute, closest_hit_brute, Ray, ShallowTree, Triangle};
+use kdray::tools::blob::write_triangle_tree;
+use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use proptest::prelude::*;
 
 /// A coordinate: mostly on a coarse grid (so planes coincide), sometimes raw.
@@ -117,7 +119,42 @@ proptest! {
 /// axis-aligned triangles, and exactly along the split planes between them.
 #[test]
 fn grid_rays_through_planes_edges_and_vertices() {
-    // A 4x4x4 lattice of unit squares in the three axis planes.
+    assert_matches_brute(&lattice(), &lattice_rays());
+}
+
+/// A tree built to a depth limit, walked by a [`ShallowTree`] of exactly
+/// that depth (one stack entry per level), answers as brute force; a
+/// stack one level shallower is refused.
+#[test]
+fn shallow_tree_of_the_tree_depth_matches_brute_force() {
+    let tris = lattice();
+    let params = BuildParams {
+        max_depth: Some(6),
+        ..BuildParams::default()
+    };
+    let built = build(&tris, BuilderKind::Sah, &params).unwrap();
+    let blob = write_triangle_tree(&built, &tris).unwrap();
+    let tree = blob.tree().unwrap();
+    assert_eq!(
+        tree.max_depth(),
+        6,
+        "the limit must bind, or the stack is not tight"
+    );
+    let err = ShallowTree::<5>::new(tree).unwrap_err();
+    assert!(err.to_string().contains("6 levels deep"), "{err}");
+    let shallow = ShallowTree::<6>::new(tree).unwrap();
+    let mut hits = 0;
+    for (i, r) in lattice_rays().iter().enumerate() {
+        let want = closest_hit_brute(&tris, r);
+        hits += usize::from(want.is_hit());
+        assert_eq!(shallow.closest_hit(r).bits(), want.bits(), "ray {i} {r:?}");
+        assert_eq!(shallow.any_hit(r), any_hit_brute(&tris, r), "ray {i} {r:?}");
+    }
+    assert!(hits > 500, "{hits} hits: too few to see a lost far cell");
+}
+
+/// A 4x4x4 lattice of unit squares in the three axis planes.
+fn lattice() -> Vec<Triangle> {
     let mut tris = Vec::new();
     for i in 0..4 {
         for j in 0..4 {
@@ -138,6 +175,12 @@ fn grid_rays_through_planes_edges_and_vertices() {
             }
         }
     }
+    tris
+}
+
+/// Rays from three sides of the lattice through its grid points, along
+/// the axes and diagonals.
+fn lattice_rays() -> Vec<Ray> {
     let mut rays = Vec::new();
     for i in 0..=8 {
         for j in 0..=8 {
@@ -171,7 +214,7 @@ fn grid_rays_through_planes_edges_and_vertices() {
             }
         }
     }
-    assert_matches_brute(&tris, &rays);
+    rays
 }
 
 /// Found by `hostile_rays_never_panic_and_match_brute_force` in a CI run

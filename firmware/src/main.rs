@@ -24,22 +24,31 @@
 use core::hint::black_box;
 #[cfg(feature = "knn")]
 use kdray_kernel::Neighbour;
-use kdray_kernel::{include_aligned, Aligned, Hit, PointTree, Ray, TriangleTree};
+use kdray_kernel::{include_aligned, Aligned, Hit, PointTree, Ray, ShallowTree, TriangleTree};
 
 /// The triangle scene, in flash (`kdray build kernel/golden/cube.obj`).
 static SCENE: &Aligned<[u8]> = include_aligned!("../../kernel/golden/cube-v2.kdt");
 /// The point set (commands in `capi/tests/data/README.md`).
 static POINTS: &Aligned<[u8]> = include_aligned!("../../capi/tests/data/grid-100.kdt");
 
+/// The depth the image's trees may have: the single-ray walk keeps one
+/// pending far cell per level, so this bounds its stack (README,
+/// "Firmware figures"). Blobs for it are built with `--max-depth 24`.
+const DEPTH: usize = 24;
+
+/// The image's triangle tree: validated, and no deeper than [`DEPTH`].
+pub type Tree = ShallowTree<'static, DEPTH>;
+
 /// How many neighbours the k-nearest entry point returns.
 #[cfg(feature = "knn")]
 const K: usize = 4;
 
-/// Validates a triangle blob: the boot-time check.
+/// Validates a triangle blob, and its depth against [`DEPTH`]: the
+/// boot-time check.
 #[no_mangle]
 #[inline(never)]
-pub fn kdray_fw_validate_triangles(blob: &'static [u8]) -> Option<TriangleTree<'static>> {
-    TriangleTree::from_bytes(blob).ok()
+pub fn kdray_fw_validate_triangles(blob: &'static [u8]) -> Option<Tree> {
+    Tree::new(TriangleTree::from_bytes(blob).ok()?).ok()
 }
 
 /// Validates a point blob.
@@ -52,14 +61,14 @@ pub fn kdray_fw_validate_points(blob: &'static [u8]) -> Option<PointTree<'static
 /// The closest hit of one ray.
 #[no_mangle]
 #[inline(never)]
-pub fn kdray_fw_closest_hit(tree: &TriangleTree<'_>, ray: &Ray) -> Hit {
+pub fn kdray_fw_closest_hit(tree: &Tree, ray: &Ray) -> Hit {
     tree.closest_hit(ray)
 }
 
 /// Whether one ray hits anything.
 #[no_mangle]
 #[inline(never)]
-pub fn kdray_fw_any_hit(tree: &TriangleTree<'_>, ray: &Ray) -> bool {
+pub fn kdray_fw_any_hit(tree: &Tree, ray: &Ray) -> bool {
     tree.any_hit(ray)
 }
 

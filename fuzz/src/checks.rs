@@ -16,7 +16,7 @@
 use kdray::kernel::wire::{blob_checksum, Header, ENDIAN_CHECK, KIND_TRIANGLES, MAGIC, VERSION};
 use kdray::kernel::{
     any_hit_brute, closest_hit_brute, Hit, Node, Packet, Packet4, Packet8, PacketWidth, Ray,
-    Triangle, TriangleTree,
+    ShallowTree, Triangle, TriangleTree,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
@@ -319,6 +319,12 @@ pub fn tree_vs_brute(data: &[u8]) {
             let got = tree.closest_hit(&ray);
             assert_eq!(got.bits(), want.bits(), "{kind:?}: {ray:?} {tris:?}");
             assert_eq!(tree.any_hit(&ray), want_any, "{kind:?} any: {ray:?}");
+            // The depth-bounded walk, for the trees it takes (most here).
+            if let Ok(shallow) = ShallowTree::<16>::new(*tree) {
+                let got = shallow.closest_hit(&ray);
+                assert_eq!(got.bits(), want.bits(), "{kind:?} shallow: {ray:?}");
+                assert_eq!(shallow.any_hit(&ray), want_any, "{kind:?} shallow any");
+            }
         }
     }
 }

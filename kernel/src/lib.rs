@@ -52,13 +52,17 @@
 //! once at boot, and keep the `TriangleTree` (it is `Copy`, two words per
 //! section). Every query runs on a fixed stack array sized by
 //! [`MAX_DEPTH`]; none can panic, so a hostile or corrupt blob costs an
-//! `Err` at boot, never a fault.
+//! `Err` at boot, never a fault. For a smaller stack, build the blob with
+//! a depth limit and trace it as a [`ShallowTree`] of that depth (a stack
+//! entry per level; 940 bytes in all for one ray at depth 24 on a
+//! Cortex-M4F, the README's firmware figures).
 //!
 //! ## Guarantees
 //! - **No panics** for any blob, ray or query, validated or not (fuzzed:
 //!   `fuzz/`; hostile blobs: `tests/hostile_blobs.rs`).
 //! - **No allocation**, no `std`, no recursion. Stack: the single-ray walk
-//!   keeps [`MAX_DEPTH`] = 64 pending cells of 12 bytes (768 bytes); a
+//!   keeps [`MAX_DEPTH`] = 64 pending cells of 12 bytes (768 bytes; a
+//!   [`ShallowTree`] of depth `D` keeps `D`); a
 //!   packet walk 64 entries of a lane-vector interval each (3 KiB for 4
 //!   lanes, 6 KiB for 8, 12 KiB for 16, on x86-64); a point query 64
 //!   entries of 8 bytes.
@@ -128,5 +132,5 @@ pub use scene::{
 };
 pub use triangle::{any_hit_brute, closest_hit_brute, SurfacePoint, Triangle, MAX_COORD};
 pub use triangle_tree::packet::{Packet, Packet16, Packet4, Packet8, PacketWidth};
-pub use triangle_tree::{TraversalCounts, TriangleTree};
+pub use triangle_tree::{ShallowTree, TraversalCounts, TriangleTree};
 pub use wire::Aligned;

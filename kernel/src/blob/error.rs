@@ -209,6 +209,14 @@ pub enum BlobError {
         /// The limit.
         max: u32,
     },
+    /// The tree is deeper than a [`ShallowTree`](crate::ShallowTree)'s
+    /// stack.
+    DeeperThanStack {
+        /// The tree's depth.
+        depth: u32,
+        /// The stack's entries (the deepest tree it walks).
+        stack: u32,
+    },
 }
 
 impl fmt::Display for BlobError {
@@ -320,6 +328,11 @@ impl fmt::Display for BlobError {
             TooDeep { node, depth, max } => write!(
                 f,
                 "node {node} is at depth {depth}, deeper than the limit {max}"
+            ),
+            DeeperThanStack { depth, stack } => write!(
+                f,
+                "the tree is {depth} levels deep, deeper than a stack of {stack} \
+                 (rebuild it with `kdray build --max-depth {stack}`)"
             ),
         }
     }

@@ -7,10 +7,12 @@ pub(crate) mod cell_ray;
 mod counts;
 mod leaf_lanes;
 pub(crate) mod packet;
+mod shallow;
 mod stream;
 mod walk;
 
 pub use counts::TraversalCounts;
+pub use shallow::ShallowTree;
 
 use crate::blob::wire::{self, Header, Sections, KIND_TRIANGLES};
 use crate::blob::{validate_nodes, BlobError, Node, WriteError};

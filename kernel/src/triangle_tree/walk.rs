@@ -56,8 +56,12 @@ pub(super) struct Pending {
     pub(super) hi: f32,
 }
 
+/// The traversal stack of [`TriangleTree`]'s walks: a pending far cell per
+/// level of the deepest tree validation accepts.
+pub(crate) const STACK: usize = MAX_DEPTH as usize;
+
 // The traversal stack the docs promise: MAX_DEPTH entries of 12 bytes.
-const _: () = assert!(core::mem::size_of::<Pending>() * MAX_DEPTH as usize == 768);
+const _: () = assert!(core::mem::size_of::<Pending>() * STACK == 768);
 
 /// What the walk does in a non-empty leaf: the closest-hit or the any-hit
 /// search. A trait rather than a closure so that the leaf test is inlined
@@ -173,7 +177,7 @@ impl<'a> TriangleTree<'a> {
     #[inline]
     #[must_use]
     pub fn closest_hit(&self, ray: &Ray) -> Hit {
-        self.closest_hit_tallied(ray, &mut ())
+        self.closest_hit_tallied::<_, STACK>(ray, &mut ())
     }
 
     /// [`TriangleTree::closest_hit`], also counting the nodes visited and
@@ -181,15 +185,20 @@ impl<'a> TriangleTree<'a> {
     #[must_use]
     pub fn closest_hit_counted(&self, ray: &Ray) -> (Hit, TraversalCounts) {
         let mut counts = TraversalCounts::default();
-        let hit = self.closest_hit_tallied(ray, &mut counts);
+        let hit = self.closest_hit_tallied::<_, STACK>(ray, &mut counts);
         (hit, counts)
     }
 
     // Not inlined: the setup and the walk share one frame and one register
     // allocation, whatever loop the caller has (measured faster than
     // inlining into `closest_hits`, and no wide copies of ray structs).
+    // `DEPTH`: the stack's entries (`ShallowTree` takes fewer).
     #[inline(never)]
-    fn closest_hit_tallied<T: Tally>(&self, ray: &Ray, tally: &mut T) -> Hit {
+    pub(super) fn closest_hit_tallied<T: Tally, const DEPTH: usize>(
+        &self,
+        ray: &Ray,
+        tally: &mut T,
+    ) -> Hit {
         let Some(sr) = ShearedRay::new(ray) else {
             return Hit::MISS;
         };
@@ -199,7 +208,7 @@ impl<'a> TriangleTree<'a> {
         let mut best = Closest::new(ray.tmax);
         let (lo, hi) = cr.start();
         let start = (0, lo, hi);
-        self.closest_from(&sr, &cr, ray.tmin, &mut best, start, tally);
+        self.closest_from::<T, DEPTH>(&sr, &cr, ray.tmin, &mut best, start, tally);
         best.hit()
     }
 
@@ -208,7 +217,7 @@ impl<'a> TriangleTree<'a> {
     /// triangles are tested over `[tmin, best.t]`. (Packets whose lanes do
     /// not walk together trace each lane with it, from the root.)
     #[inline(always)]
-    pub(crate) fn closest_from<T: Tally>(
+    pub(crate) fn closest_from<T: Tally, const DEPTH: usize>(
         &self,
         sr: &ShearedRay,
         cr: &CellRay,
@@ -219,7 +228,7 @@ impl<'a> TriangleTree<'a> {
     ) {
         let mut visit = ClosestVisit { sr, tmin, best };
         // The closest-hit visitor never stops the walk early.
-        self.walk(cr, start, tally, &mut visit);
+        self.walk::<T, _, DEPTH>(cr, start, tally, &mut visit);
     }
 
     /// Does any triangle hit `ray` in `[tmin, tmax]`? Exactly when
@@ -247,20 +256,24 @@ impl<'a> TriangleTree<'a> {
     #[inline]
     #[must_use]
     pub fn any_hit(&self, ray: &Ray) -> bool {
-        self.any_hit_tallied(ray, &mut ())
+        self.any_hit_tallied::<_, STACK>(ray, &mut ())
     }
 
     /// [`TriangleTree::any_hit`], also counting the work done.
     #[must_use]
     pub fn any_hit_counted(&self, ray: &Ray) -> (bool, TraversalCounts) {
         let mut counts = TraversalCounts::default();
-        let hit = self.any_hit_tallied(ray, &mut counts);
+        let hit = self.any_hit_tallied::<_, STACK>(ray, &mut counts);
         (hit, counts)
     }
 
     // Not inlined: see `closest_hit_tallied`.
     #[inline(never)]
-    fn any_hit_tallied<T: Tally>(&self, ray: &Ray, tally: &mut T) -> bool {
+    pub(super) fn any_hit_tallied<T: Tally, const DEPTH: usize>(
+        &self,
+        ray: &Ray,
+        tally: &mut T,
+    ) -> bool {
         let Some(sr) = ShearedRay::new(ray) else {
             return false;
         };
@@ -269,13 +282,13 @@ impl<'a> TriangleTree<'a> {
         };
         let (lo, hi) = cr.start();
         let start = (0, lo, hi);
-        self.any_from(&sr, &cr, (ray.tmin, ray.tmax), start, tally)
+        self.any_from::<T, DEPTH>(&sr, &cr, (ray.tmin, ray.tmax), start, tally)
     }
 
     /// The any-hit search of one ray over `[tmin, tmax]` through the
     /// subtree at `start` = `(node, lo, hi)`.
     #[inline(always)]
-    pub(crate) fn any_from<T: Tally>(
+    pub(crate) fn any_from<T: Tally, const DEPTH: usize>(
         &self,
         sr: &ShearedRay,
         cr: &CellRay,
@@ -284,7 +297,7 @@ impl<'a> TriangleTree<'a> {
         tally: &mut T,
     ) -> bool {
         let mut visit = AnyVisit { sr, tmin, tmax };
-        self.walk(cr, start, tally, &mut visit)
+        self.walk::<T, _, DEPTH>(cr, start, tally, &mut visit)
     }
 
     /// One interior step of the walk at `node`, whose plane the ray
@@ -349,8 +362,17 @@ impl<'a> TriangleTree<'a> {
 
     /// The traversal loop: `visit` sees each non-empty leaf's primitives,
     /// in front-to-back order of cells. `true` when `visit` stopped it.
+    /// The stack holds `DEPTH` pending far cells, one per level: enough
+    /// for a tree of that depth (a deeper, unchecked one ends the walk
+    /// where a push finds no room).
     #[inline(always)]
-    fn walk<T, V>(&self, cr: &CellRay, start: (u32, f32, f32), tally: &mut T, visit: &mut V) -> bool
+    fn walk<T, V, const DEPTH: usize>(
+        &self,
+        cr: &CellRay,
+        start: (u32, f32, f32),
+        tally: &mut T,
+        visit: &mut V,
+    ) -> bool
     where
         T: Tally,
         V: Visit<'a, T>,
@@ -363,7 +385,7 @@ impl<'a> TriangleTree<'a> {
         // Left uninitialised: zeroing 768 bytes per ray was a `memset` call
         // costing ~5% of a camera-ray trace. Invariant: entries below `sp`
         // are written (a push writes `stack[sp]` before `sp` grows past it).
-        let mut stack = [MaybeUninit::<Pending>::uninit(); MAX_DEPTH as usize];
+        let mut stack = [MaybeUninit::<Pending>::uninit(); DEPTH];
         let mut sp = 0usize;
         let (node0, mut lo, mut hi) = start;
         // Origin and reciprocal direction side by side, filled element by
@@ -476,6 +498,7 @@ mod tests {
     use crate::geometry::{Axis, Bounds};
     use crate::test_rng::Rng;
     use crate::triangle::{any_hit_brute, closest_hit_brute};
+    use crate::ShallowTree;
 
     #[test]
     fn walk_equals_brute_force_through_stacked_far_cells() {
@@ -514,6 +537,10 @@ mod tests {
             max: [1.0; 3],
         };
         let tree = TriangleTree::from_parts(&nodes, &prims, &tris, bounds).unwrap();
+        // Depth 2: a stack of two entries walks it (one too few would lose
+        // the far cells pushed at depth 1), one is refused.
+        let shallow = ShallowTree::<2>::new(tree).unwrap();
+        assert!(ShallowTree::<1>::new(tree).is_err());
         let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
         let mut f = || rng.f();
         let mut hits = 0;
@@ -531,8 +558,11 @@ mod tests {
             };
             let want = closest_hit_brute(&tris, &ray);
             hits += usize::from(want.is_hit());
+            let any = any_hit_brute(&tris, &ray);
             assert_eq!(tree.closest_hit(&ray).bits(), want.bits(), "{ray:?}");
-            assert_eq!(tree.any_hit(&ray), any_hit_brute(&tris, &ray), "{ray:?}");
+            assert_eq!(tree.any_hit(&ray), any, "{ray:?}");
+            assert_eq!(shallow.closest_hit(&ray).bits(), want.bits(), "{ray:?}");
+            assert_eq!(shallow.any_hit(&ray), any, "{ray:?}");
         }
         assert!(
             hits > 20,

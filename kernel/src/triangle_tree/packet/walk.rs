@@ -61,7 +61,7 @@
 // Not built: a mailbox (0.8 of ~10 triangle tests per packet repeat one,
 // about what the check would cost).
 
-use super::super::walk::LeafIter;
+use super::super::walk::{LeafIter, STACK};
 use super::super::TriangleTree;
 use super::lane_rays::LaneRays;
 use crate::blob::MAX_DEPTH;
@@ -245,7 +245,14 @@ impl<'a> TriangleTree<'a> {
         if !lr.coherent {
             return lr.alone(Hit::MISS, |one, start| {
                 let mut best = Closest::new(one.tmax);
-                self.closest_from(&one.sr, &one.cr, one.tmin, &mut best, start, &mut ());
+                self.closest_from::<_, STACK>(
+                    &one.sr,
+                    &one.cr,
+                    one.tmin,
+                    &mut best,
+                    start,
+                    &mut (),
+                );
                 best.hit()
             });
         }
@@ -270,7 +277,7 @@ impl<'a> TriangleTree<'a> {
     ) -> u32 {
         if !lr.coherent {
             let hit = lr.alone(false, |one, start| {
-                self.any_from(&one.sr, &one.cr, (one.tmin, one.tmax), start, &mut ())
+                self.any_from::<_, STACK>(&one.sr, &one.cr, (one.tmin, one.tmax), start, &mut ())
             });
             return hit
                 .iter()

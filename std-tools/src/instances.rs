@@ -11,8 +11,9 @@
 //!    computes the inverse once);
 //! 2. recomputes the world boxes from the kept mesh bounds
 //!    ([`world_boxes`]) and rebuilds only the top level over them
-//!    ([`build_top_level`], [`builders::fast`]; docs/results.md `## Scenes`
-//!    has its time for 10,000 instances);
+//!    ([`build_top_level`], [`builders::fast`]), or keeps a [`TopLevel`]
+//!    and refills its planes ([`TopLevel::update`]; docs/results.md
+//!    `## Scenes` has both times for 10,000 instances);
 //! 3. rebuilds the tree of each deforming mesh with
 //!    [`BuilderKind::Fast`] (and writes its blob; its bounds change too);
 //! 4. assembles the scene from the trees, the instances and the new top

@@ -8,7 +8,7 @@ use kdray::kernel::{Instance, Packet8, Ray, Scene, SceneError, SceneHit, Triangl
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use kdray::tools::instances::{
     build_scene, build_top_level, flatten_scene, flattened_offsets, generated_level, mesh_bounds,
-    placement, sphere, torus, world_boxes, SceneParts,
+    moved_level, placement, sphere, torus, world_boxes, SceneParts, TopLevel, TopParams,
 };
 use proptest::prelude::*;
 
@@ -312,6 +312,58 @@ fn the_top_level_is_rebuilt_from_moved_instances() {
             );
         }
     }
+}
+
+#[test]
+fn a_kept_top_level_refilled_over_moving_instances_equals_brute_force() {
+    let meshes = small_meshes();
+    let bounds = mesh_bounds(&meshes).unwrap();
+    let trees: Vec<_> = meshes
+        .iter()
+        .map(|m| build(m, BuilderKind::default(), &BuildParams::default()).unwrap())
+        .collect();
+    let views: Vec<_> = trees
+        .iter()
+        .zip(&meshes)
+        .map(|(t, m)| TriangleTree::from_parts(&t.nodes, &t.prims, m, t.bounds).unwrap())
+        .collect();
+    let (_, start) = generated_level(60, 20.0, 3);
+    let mut kept = TopLevel::new(&world_boxes(&bounds, &start), &TopParams::DEFAULT);
+    let mut rebuilt = 0;
+    let mut rng = kdray::tools::rng::Rng::new(4);
+    for frame in 1..12 {
+        // Fast enough that some frames drift past the rebuild factor.
+        let instances = moved_level(&start, frame, 0.4, 8);
+        rebuilt += u32::from(kept.update(&world_boxes(&bounds, &instances)));
+        let top = kept.tree();
+        let scene =
+            Scene::from_parts(&views, &instances, &top.nodes, &top.prims, top.bounds).unwrap();
+        let mut hits = 0;
+        for k in 0..200 {
+            let inst = &instances[k % instances.len()];
+            let c = inst.to_world();
+            let o = [
+                rng.range(-15.0, 15.0),
+                rng.range(-2.0, 6.0),
+                rng.range(-15.0, 15.0),
+            ];
+            let ray = Ray {
+                origin: o,
+                tmin: 0.0,
+                dir: [c[3] - o[0], c[7] - o[1], c[11] - o[2]],
+                tmax: f32::INFINITY,
+            };
+            hits += usize::from(check(&scene, &ray, u32::MAX));
+        }
+        assert!(
+            hits > 100,
+            "frame {frame}: rays aimed at instances hit: {hits}"
+        );
+    }
+    assert!(
+        (1..11).contains(&rebuilt),
+        "some frames refilled, some rebuilt: {rebuilt}"
+    );
 }
 
 /// Standard base64 with padding.

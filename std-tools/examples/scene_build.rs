@@ -21,6 +21,7 @@ fn main() {
         bins: arg(3).map_or(d.bins, |x| x as usize),
         leaf_size: arg(4).map_or(d.leaf_size, |x| x as usize),
         extra_depth: arg(5).map_or(d.extra_depth, |x| x as u32),
+        ..d
     };
     let (meshes, instances) = generated_level(n / 2, (n as f32).sqrt() * 2.0, 1);
     let bounds = mesh_bounds(&meshes).expect("the generated meshes build");

@@ -11,8 +11,9 @@
 //!    computes the inverse once);
 //! 2. recomputes the world boxes from the kept mesh bounds
 //!    ([`world_boxes`]) and rebuilds only the top level over them
-//!    ([`build_top_level`], [`builders::fast`]; docs/results.md `## Scenes`
-//!    has its time for 10,000 instances);
+//!    ([`build_top_level`], [`builders::fast`]), or keeps a [`TopLevel`]
+//!    and refills its planes ([`TopLevel::update`]; docs/results.md
+//!    `## Scenes` has both times for 10,000 instances);
 //! 3. rebuilds the tree of each deforming mesh with
 //!    [`BuilderKind::Fast`] (and writes its blob; its bounds change too);
 //! 4. assembles the scene from the trees, the instances and the new top
@@ -65,6 +66,10 @@ pub struct TopParams {
     pub leaf_size: usize,
     /// Depth limit: `extra_depth + log2(n)`, at most `MAX_DEPTH`.
     pub extra_depth: u32,
+    /// A kept top level ([`TopLevel::update`]) is rebuilt when its SAH
+    /// cost, or its bounds' area, exceeds this factor times what it was
+    /// when built.
+    pub drift: f64,
 }
 
 impl TopParams {
@@ -79,6 +84,7 @@ impl TopParams {
         bins: 16,
         leaf_size: 2,
         extra_depth: 6,
+        drift: 1.1,
     };
 }
 
@@ -145,6 +151,57 @@ pub fn build_top_level_with(boxes: &[Bounds], p: &TopParams) -> BuiltTree {
         shrink_bins: false,
     };
     builders::fast::build(boxes, bounds, &fast)
+}
+
+/// A scene's top level kept from frame to frame: [`TopLevel::update`]
+/// sends the moved world boxes down the split planes it already has
+/// ([`builders::refill`]) and rebuilds only when that tree's SAH cost has
+/// drifted past [`TopParams::drift`] times its cost as built.
+#[derive(Clone, Debug)]
+pub struct TopLevel {
+    tree: BuiltTree,
+    refill: builders::refill::Refill,
+    params: TopParams,
+    /// The SAH cost and root area when last built.
+    built: (f64, f64),
+}
+
+impl TopLevel {
+    /// The top level over `boxes`, built ([`build_top_level_with`]).
+    #[must_use]
+    pub fn new(boxes: &[Bounds], params: &TopParams) -> TopLevel {
+        let tree = build_top_level_with(boxes, params);
+        let refill = builders::refill::Refill::new(&tree, &params.cost);
+        let built = (refill.cost(&tree), tree.bounds.area());
+        TopLevel {
+            tree,
+            refill,
+            params: *params,
+            built,
+        }
+    }
+
+    /// The tree over this frame's `boxes` (one per instance, as for
+    /// [`build_top_level_with`]): the kept planes refilled, or a rebuild
+    /// when their cost or the bounds' area drifted past
+    /// [`TopParams::drift`] (or no box is left). Returns whether it rebuilt.
+    pub fn update(&mut self, boxes: &[Bounds]) -> bool {
+        let drift = self.params.drift;
+        let (cost, area) = self.built;
+        match self.refill.refill(&mut self.tree, boxes) {
+            Some(c) if c <= drift * cost && self.tree.bounds.area() <= drift * area => false,
+            _ => {
+                *self = TopLevel::new(boxes, &self.params);
+                true
+            }
+        }
+    }
+
+    /// The tree (nodes in the kernel's treelet layout).
+    #[must_use]
+    pub fn tree(&self) -> &BuiltTree {
+        &self.tree
+    }
 }
 
 /// A scene built on the host: the mesh tree blobs, the instances, the top level.
@@ -433,6 +490,30 @@ pub fn generated_level(copies: usize, size: f32, seed: u64) -> (Vec<Vec<Triangle
     let floor_m = placement([0.0, 1.0, 0.0], 0.0, [half, 1.0, half], [0.0, 0.0, 0.0]);
     instances.extend(Instance::new(2, floor_m, u32::MAX, u32::MAX));
     (meshes, instances)
+}
+
+/// `instances` after `frames` frames of motion: each but the last (the
+/// generated level's floor) moved by `speed` per frame along its own
+/// horizontal direction (from `seed` and its index), nothing else changed.
+#[must_use]
+pub fn moved_level(instances: &[Instance], frames: u32, speed: f32, seed: u64) -> Vec<Instance> {
+    let mut rng = Rng::new(seed);
+    let last = instances.len().saturating_sub(1);
+    instances
+        .iter()
+        .enumerate()
+        .map(|(k, inst)| {
+            let angle = rng.range(0.0, std::f32::consts::TAU);
+            if k == last {
+                return *inst;
+            }
+            let step = speed * frames as f32;
+            let mut m = inst.to_world();
+            m[3] += step * angle.cos();
+            m[11] += step * angle.sin();
+            Instance::new(inst.mesh(), m, inst.id(), inst.mask()).unwrap_or(*inst)
+        })
+        .collect()
 }
 
 /// Is `bytes` a scene blob (by its header's kind; nothing else checked)?

@@ -63,30 +63,30 @@ pub const MAX_BINS: usize = 64;
 /// per box; `u32` slots read as floats: 4% more instructions.)
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(32))]
-struct Item([f32; 8]);
+pub(super) struct Item([f32; 8]);
 
 /// Where an item keeps its index, and where its box's `hi` starts.
 const ID: usize = 3;
 const HI: usize = 4;
 
 impl Item {
-    const NONE: Item = Item([0.0; 8]);
+    pub(super) const NONE: Item = Item([0.0; 8]);
 
-    fn new(b: &Bounds, id: u32) -> Item {
+    pub(super) fn new(b: &Bounds, id: u32) -> Item {
         let [l0, l1, l2] = b.min;
         let [h0, h1, h2] = b.max;
         Item([l0, l1, l2, f32::from_bits(id), h0, h1, h2, 0.0])
     }
 
-    fn lo(&self, a: usize) -> f32 {
+    pub(super) fn lo(&self, a: usize) -> f32 {
         self.0[a]
     }
 
-    fn hi(&self, a: usize) -> f32 {
+    pub(super) fn hi(&self, a: usize) -> f32 {
         self.0[HI + a]
     }
 
-    fn id(&self) -> u32 {
+    pub(super) fn id(&self) -> u32 {
         self.0[ID].to_bits()
     }
 }
@@ -221,7 +221,11 @@ fn depth_first(boxes: &[Bounds], bounds: Bounds, p: &FastParams) -> BuiltTree {
 /// Branch-free: each item is written to both sides' next slot and kept
 /// where its side holds it (the sides are unpredictable). The axis is a
 /// constant so the compared coordinate is read in place.
-fn partition<const A: usize>(cur: &mut [Item], spare: &mut [Item], plane: f32) -> (usize, usize) {
+pub(super) fn partition<const A: usize>(
+    cur: &mut [Item],
+    spare: &mut [Item],
+    plane: f32,
+) -> (usize, usize) {
     let (mut n_above, mut n_below) = (0, 0);
     for k in 0..cur.len() {
         // The coordinates read first and the item copied whole, memory to
@@ -237,7 +241,7 @@ fn partition<const A: usize>(cur: &mut [Item], spare: &mut [Item], plane: f32) -
 
 /// A leaf of `items` (in index order, each once); a run of several goes
 /// to `prims`.
-fn leaf(items: &[Item], prims: &mut Vec<u32>) -> Node {
+pub(super) fn leaf(items: &[Item], prims: &mut Vec<u32>) -> Node {
     match items {
         [] => Node::EMPTY_LEAF,
         [it] => Node::leaf(1, it.id()).unwrap_or(Node::EMPTY_LEAF),
@@ -490,14 +494,14 @@ fn max(a: f32, b: f32) -> f32 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::rng::Rng;
     use kdray_kernel::NodeKind;
 
-    /// The leaves of the depth-first `tree` whose closed cells hold `p`
+    /// The leaves of `tree` (any layout) whose closed cells hold `p`
     /// (both sides of a plane through `p`).
-    fn leaves_at(tree: &BuiltTree, p: [f32; 3]) -> Vec<Vec<u32>> {
+    pub(in crate::builders) fn leaves_at(tree: &BuiltTree, p: [f32; 3]) -> Vec<Vec<u32>> {
         let mut out = Vec::new();
         let mut todo = vec![0u32];
         while let Some(i) = todo.pop() {

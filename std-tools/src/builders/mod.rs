@@ -29,6 +29,7 @@ mod item;
 pub mod layout;
 mod median;
 mod monitor;
+pub mod refill;
 mod sah;
 mod small;
 mod subdivide;

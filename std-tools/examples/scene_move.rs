@@ -1,0 +1,85 @@
+//! Times the per-frame top level of a generated level whose instances
+//! move, one thread: `taskset -c 0 cargo run --release -p kdray-tools
+//! --example scene_move -- 10000 FRAMES SPEED` (defaults 200 frames of
+//! 0.02 units per frame, instances about 2 units across). Each frame the
+//! moved instances' world boxes are computed (timed apart), then, in
+//! turn, the top level is rebuilt ([`build_top_level_with`]) and the kept
+//! one updated ([`TopLevel::update`]); prints both times (best, mean,
+//! worst), the rebuilds, and the SAH cost of both trees at the last frame.
+
+use kdray_tools::instances::{
+    build_top_level_with, generated_level, mesh_bounds, moved_level, world_boxes, TopLevel,
+    TopParams,
+};
+use std::time::Instant;
+
+fn main() {
+    let arg = |i: usize| std::env::args().nth(i).and_then(|a| a.parse::<f64>().ok());
+    let n = arg(1).map_or(10_000, |x| x as usize);
+    let frames = arg(2).map_or(200, |x| x as u32);
+    let speed = arg(3).unwrap_or(0.02) as f32;
+    let p = TopParams {
+        drift: arg(4).unwrap_or(TopParams::DEFAULT.drift),
+        ..TopParams::DEFAULT
+    };
+    let (meshes, instances) = generated_level(n / 2, (n as f32).sqrt() * 2.0, 1);
+    let bounds = mesh_bounds(&meshes).expect("the generated meshes build");
+    let mut kept = TopLevel::new(&world_boxes(&bounds, &instances), &p);
+    let (mut boxes_t, mut build_t, mut update_t) = (Stat::new(), Stat::new(), Stat::new());
+    let mut rebuilds = 0;
+    let mut fresh = None;
+    for f in 1..=frames {
+        let moved = moved_level(&instances, f, speed, 2);
+        let t = Instant::now();
+        let boxes = world_boxes(&bounds, &moved);
+        boxes_t.add(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        let tree = build_top_level_with(&boxes, &p);
+        build_t.add(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        rebuilds += u32::from(kept.update(&boxes));
+        update_t.add(t.elapsed().as_secs_f64());
+        fresh = Some(tree);
+    }
+    let fresh = fresh.expect("one frame at least");
+    let cost = |t: &kdray_tools::builders::BuiltTree| {
+        kdray_tools::stats::sah_cost(&t.nodes, &t.bounds, p.cost)
+    };
+    println!(
+        "{} instances, {frames} frames of {speed} per frame: world boxes {}, rebuild {}, kept and updated {} ({rebuilds} rebuilds); last frame SAH cost rebuilt {:.2}, kept {:.2} ({} listed)",
+        instances.len(),
+        boxes_t,
+        build_t,
+        update_t,
+        cost(&fresh),
+        cost(kept.tree()),
+        kept.tree().prims.len(),
+    );
+}
+
+/// Best, mean and worst of a series of times.
+struct Stat(Vec<f64>);
+
+impl Stat {
+    fn new() -> Stat {
+        Stat(Vec::new())
+    }
+    fn add(&mut self, t: f64) {
+        self.0.push(t);
+    }
+}
+
+impl std::fmt::Display for Stat {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let best = self.0.iter().copied().fold(f64::INFINITY, f64::min);
+        let worst = self.0.iter().copied().fold(0.0, f64::max);
+        let mean = self.0.iter().sum::<f64>() / self.0.len().max(1) as f64;
+        write!(
+            f,
+            "{:.3}/{:.3}/{:.3} ms",
+            best * 1e3,
+            mean * 1e3,
+            worst * 1e3
+        )
+    }
+}

@@ -51,14 +51,18 @@
 mod brute;
 mod closest;
 pub(crate) mod lanes;
+#[cfg(target_arch = "x86_64")]
+mod plane_x86;
 mod spawn;
 
 pub use brute::{any_hit_brute, closest_hit_brute};
 pub(crate) use closest::Closest;
+#[cfg(target_arch = "x86_64")]
+pub(crate) use plane_x86::plane_t as plane_t_avx2;
 pub use spawn::SurfacePoint;
 
 use crate::geometry::{ray_is_valid, Bounds, Hit, Ray};
-use crate::lanes::Real;
+use crate::lanes::{Lanes, Real};
 use bytemuck::{Pod, Zeroable};
 
 /// The largest vertex coordinate magnitude the watertight test handles:
@@ -410,7 +414,7 @@ pub(crate) fn plane_t(org: &[f32; 3], dir: &[f32; 3], tri: &Triangle) -> f32 {
 /// lanes in vector registers (packets against a triangle that several of
 /// their rays hit).
 #[inline(always)]
-pub(crate) fn plane_t_lanes<const N: usize>(
+pub(crate) fn plane_t_lanes<V: Lanes<N>, const N: usize>(
     org: &[[f32; N]; 3],
     dir: &[[f32; N]; 3],
     tri: &Triangle,
@@ -422,7 +426,7 @@ pub(crate) fn plane_t_lanes<const N: usize>(
         // One lane: the scalar call is cheaper than all N.
         let l = lanes.trailing_zeros() as usize;
         if let Some(x) = t.get_mut(l) {
-            *x = plane_t(&at(org, l), &at(dir, l), tri);
+            *x = V::plane_t(&at(org, l), &at(dir, l), tri);
         }
         return;
     }
@@ -904,7 +908,8 @@ mod tests {
     fn plane_t_lanes_equal_the_scalar_plane_t_bitwise() {
         // Rays through, beside and in the plane of grid-snapped, sliver and
         // degenerate triangles (the clamp's and the no-plane paths), for
-        // every lane mask from one lane to all eight.
+        // every lane mask from one lane to all eight; the AVX2 `plane_t`
+        // on each lane's ray where the CPU has it.
         let mut rng = crate::test_rng::Rng(0x2545_F491_4F6C_DD1D);
         let c = |rng: &mut crate::test_rng::Rng| {
             let x = rng.f() * 4.0 - 2.0;
@@ -937,12 +942,18 @@ mod tests {
                 core::array::from_fn(|_| core::array::from_fn(|_| c(&mut rng)));
             let lanes = (round.wrapping_mul(0x9E37_79B9) >> 24) | 1 << (round % 8);
             let mut t = [7.0f32; 8];
-            plane_t_lanes(&org, &dir, &tri, lanes, &mut t);
+            plane_t_lanes::<wide::f32x8, 8>(&org, &dir, &tri, lanes, &mut t);
             for l in 0..8 {
                 let want = if lanes >> l & 1 == 1 {
                     let at = |c: &[[f32; 8]; 3]| [c[0][l], c[1][l], c[2][l]];
                     let want = plane_t(&at(&org), &at(&dir), &tri);
                     let t = Plane::of(&tri).ray_t(&tri.v[0], &at(&org), &at(&dir));
+                    #[cfg(target_arch = "x86_64")]
+                    if std::is_x86_feature_detected!("avx2") {
+                        // SAFETY: AVX2 was detected.
+                        let avx = unsafe { plane_t_avx2(&at(&org), &at(&dir), &tri) };
+                        assert_eq!(avx.to_bits(), want.to_bits(), "AVX2, round {round}");
+                    }
                     nan += usize::from(want.is_nan());
                     clamped += usize::from(t.is_some_and(|t| t as f32 != want));
                     want

@@ -68,7 +68,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
         let mut win = watertight::<V, N, ANY>(a, b, c, self.shear[2], live, tmin, tmax)?;
         if win.exact != 0 {
             let (org, dir) = (self.org.map(V::to_array), self.dir.map(V::to_array));
-            plane_t_lanes(&org, &dir, tri, win.exact, &mut win.t);
+            plane_t_lanes::<V, N>(&org, &dir, tri, win.exact, &mut win.t);
         }
         win.hits(tmin, tmax)
     }

@@ -5,12 +5,29 @@
 //! agrees with its flattened tree.
 
 use kdray::kernel::{Instance, Packet8, Ray, Scene, SceneError, SceneHit, Triangle, TriangleTree};
-use kdray::tools::builders::{build, BuildParams, BuilderKind};
+use kdray::tools::builders::{build, BuildParams, BuilderKind, BuiltTree};
 use kdray::tools::instances::{
     build_scene, build_top_level, flatten_scene, flattened_offsets, generated_level, mesh_bounds,
     moved_level, placement, sphere, torus, world_boxes, SceneParts, TopLevel, TopParams,
 };
 use proptest::prelude::*;
+
+/// Each mesh's tree, by the default builder.
+fn build_all(meshes: &[Vec<Triangle>]) -> Vec<BuiltTree> {
+    meshes
+        .iter()
+        .map(|m| build(m, BuilderKind::default(), &BuildParams::default()).unwrap())
+        .collect()
+}
+
+/// The kernel's views of `trees` over their `meshes`.
+fn views_of<'a>(trees: &'a [BuiltTree], meshes: &'a [Vec<Triangle>]) -> Vec<TriangleTree<'a>> {
+    trees
+        .iter()
+        .zip(meshes)
+        .map(|(t, m)| TriangleTree::from_parts(&t.nodes, &t.prims, m, t.bounds).unwrap())
+        .collect()
+}
 
 fn small_meshes() -> Vec<Vec<Triangle>> {
     let tri = Triangle {
@@ -288,15 +305,8 @@ fn the_top_level_is_rebuilt_from_moved_instances() {
             *inst = Instance::new(inst.mesh(), m, inst.id(), inst.mask()).unwrap();
         }
         let top = build_top_level(&world_boxes(&bounds, &instances));
-        let trees: Vec<_> = meshes
-            .iter()
-            .map(|m| build(m, BuilderKind::default(), &BuildParams::default()).unwrap())
-            .collect();
-        let views: Vec<_> = trees
-            .iter()
-            .zip(&meshes)
-            .map(|(t, m)| TriangleTree::from_parts(&t.nodes, &t.prims, m, t.bounds).unwrap())
-            .collect();
+        let trees = build_all(&meshes);
+        let views = views_of(&trees, &meshes);
         let scene =
             Scene::from_parts(&views, &instances, &top.nodes, &top.prims, top.bounds).unwrap();
         for k in 0..20 {
@@ -318,15 +328,8 @@ fn the_top_level_is_rebuilt_from_moved_instances() {
 fn a_kept_top_level_refilled_over_moving_instances_equals_brute_force() {
     let meshes = small_meshes();
     let bounds = mesh_bounds(&meshes).unwrap();
-    let trees: Vec<_> = meshes
-        .iter()
-        .map(|m| build(m, BuilderKind::default(), &BuildParams::default()).unwrap())
-        .collect();
-    let views: Vec<_> = trees
-        .iter()
-        .zip(&meshes)
-        .map(|(t, m)| TriangleTree::from_parts(&t.nodes, &t.prims, m, t.bounds).unwrap())
-        .collect();
+    let trees = build_all(&meshes);
+    let views = views_of(&trees, &meshes);
     let (_, start) = generated_level(60, 20.0, 3);
     let mut kept = TopLevel::new(&world_boxes(&bounds, &start), &TopParams::DEFAULT);
     let mut rebuilt = 0;

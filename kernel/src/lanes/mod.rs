@@ -19,7 +19,6 @@ pub(crate) use dispatch::{dispatch, Job, Level};
 pub(crate) use span::Span;
 
 use crate::geometry::Ray;
-use crate::triangle::Triangle;
 use core::ops::{BitAnd, BitOr, Div, Mul};
 
 /// The arithmetic the triangle test's `t` window shares between `f32` and
@@ -82,13 +81,10 @@ pub(crate) trait Lanes<const N: usize>:
     fn select(mask: Self, if_true: Self, if_false: Self) -> Self;
     /// The lane mask of a bitmask.
     fn mask(bits: u32) -> Self;
-    /// [`plane_t`](crate::triangle::plane_t) of one ray against `tri`,
-    /// at this lane type's instruction set level (the same bits at every
-    /// level).
-    #[inline(always)]
-    fn plane_t(org: &[f32; 3], dir: &[f32; 3], tri: &Triangle) -> f32 {
-        crate::triangle::plane_t(org, dir, tri)
-    }
+    /// Whether values of this type exist only in code run after AVX2 was
+    /// detected (the AVX2 and AVX-512 levels' types), so that code
+    /// generic over it may use AVX2 (the triangle's `plane_t`).
+    const AVX2: bool = false;
 }
 
 macro_rules! impl_lanes {

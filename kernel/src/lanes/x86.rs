@@ -19,7 +19,6 @@
 
 use super::{ray_floats, Lanes, Real, Span};
 use crate::geometry::Ray;
-use crate::triangle::Triangle;
 use core::arch::x86_64::*;
 use core::ops::{Add, BitAnd, BitOr, Div, Mul, Sub};
 
@@ -179,11 +178,8 @@ fn columns8(rays: &[Ray]) -> [Avx8; 8] {
 }
 
 impl Lanes<8> for Avx8 {
-    #[inline(always)]
-    fn plane_t(org: &[f32; 3], dir: &[f32; 3], tri: &Triangle) -> f32 {
-        // SAFETY (besides `avx!`'s): both levels include AVX2.
-        avx!(crate::triangle::plane_t_avx2(org, dir, tri))
-    }
+    // Both levels that make `Avx8` values include AVX2.
+    const AVX2: bool = true;
     #[inline(always)]
     fn from_array(a: [f32; 8]) -> Self {
         // SAFETY (besides `avx!`'s): an `[f32; 8]` is 32 readable bytes.
@@ -287,11 +283,8 @@ impl Avx16 {
 }
 
 impl Lanes<16> for Avx16 {
-    #[inline(always)]
-    fn plane_t(org: &[f32; 3], dir: &[f32; 3], tri: &Triangle) -> f32 {
-        // SAFETY (besides `avx!`'s): both levels include AVX2.
-        avx!(crate::triangle::plane_t_avx2(org, dir, tri))
-    }
+    // The AVX-512 level includes AVX2.
+    const AVX2: bool = true;
     #[inline(always)]
     fn from_array(a: [f32; 16]) -> Self {
         // SAFETY (besides `avx!`'s): an `[f32; 16]` is 64 readable bytes.

@@ -57,8 +57,6 @@ mod spawn;
 
 pub use brute::{any_hit_brute, closest_hit_brute};
 pub(crate) use closest::Closest;
-#[cfg(target_arch = "x86_64")]
-pub(crate) use plane_x86::plane_t as plane_t_avx2;
 pub use spawn::SurfacePoint;
 
 use crate::geometry::{ray_is_valid, Bounds, Hit, Ray};
@@ -405,6 +403,25 @@ pub(crate) fn plane_t(org: &[f32; 3], dir: &[f32; 3], tri: &Triangle) -> f32 {
     box_clamp(t, tri, org, dir)
 }
 
+/// [`plane_t`] at the instruction set level of the lane type `V` (the
+/// same bits at every level): in AVX2 registers where `V`'s values imply
+/// AVX2.
+#[inline(always)]
+pub(crate) fn plane_t_at<V: Lanes<N>, const N: usize>(
+    org: &[f32; 3],
+    dir: &[f32; 3],
+    tri: &Triangle,
+) -> f32 {
+    if V::AVX2 {
+        // SAFETY: `V::AVX2` holds only for lane types whose values exist
+        // only in code run after AVX2 was detected (`crate::lanes::x86`,
+        // x86-64 alone), and this is called from code working on them.
+        #[cfg(target_arch = "x86_64")]
+        return unsafe { plane_x86::plane_t(org, dir, tri) };
+    }
+    plane_t(org, dir, tri)
+}
+
 /// [`plane_t`] of each lane's ray against one triangle `tri`, into `t`
 /// for the lanes in `lanes` (bit `l` = lane `l`; the others keep their
 /// value): `org[axis][lane]`, `dir` likewise. The triangle's part (normal,
@@ -426,7 +443,7 @@ pub(crate) fn plane_t_lanes<V: Lanes<N>, const N: usize>(
         // One lane: the scalar call is cheaper than all N.
         let l = lanes.trailing_zeros() as usize;
         if let Some(x) = t.get_mut(l) {
-            *x = V::plane_t(&at(org, l), &at(dir, l), tri);
+            *x = plane_t_at::<V, N>(&at(org, l), &at(dir, l), tri);
         }
         return;
     }
@@ -951,7 +968,7 @@ mod tests {
                     #[cfg(target_arch = "x86_64")]
                     if std::is_x86_feature_detected!("avx2") {
                         // SAFETY: AVX2 was detected.
-                        let avx = unsafe { plane_t_avx2(&at(&org), &at(&dir), &tri) };
+                        let avx = unsafe { plane_x86::plane_t(&at(&org), &at(&dir), &tri) };
                         assert_eq!(avx.to_bits(), want.to_bits(), "AVX2, round {round}");
                     }
                     nan += usize::from(want.is_nan());

@@ -23,7 +23,7 @@
 use crate::geometry::MISS;
 use crate::lanes::{dispatch, Job, Lanes, Level};
 use crate::triangle::lanes::{watertight, LaneHits};
-use crate::triangle::{Closest, ShearedRay, Triangle, TriangleHit};
+use crate::triangle::{plane_t_at, Closest, ShearedRay, Triangle, TriangleHit};
 
 /// Leaves with at least this many triangles are tested in lanes; smaller
 /// ones one triangle at a time (measured on bunny camera rays: 2 and 3
@@ -108,7 +108,7 @@ impl<'r, V: Lanes<N>, const N: usize> LeafRay<'r, V, N> {
                 // A `match`, not `map_or`'s closure, which could stay out
                 // of line without the level's features.
                 *x = match tri {
-                    Some(tri) => V::plane_t(&sr.org, &sr.dir, tri),
+                    Some(tri) => plane_t_at::<V, N>(&sr.org, &sr.dir, tri),
                     None => f32::NAN,
                 };
             }

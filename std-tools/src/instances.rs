@@ -159,7 +159,7 @@ pub fn build_top_level_with(boxes: &[Bounds], p: &TopParams) -> BuiltTree {
 /// drifted past [`TopParams::drift`] times its cost as built.
 #[derive(Clone, Debug)]
 pub struct TopLevel {
-    tree: BuiltTree,
+    /// The tree and its weights.
     refill: builders::refill::Refill,
     params: TopParams,
     /// The SAH cost and root area when last built.
@@ -171,10 +171,10 @@ impl TopLevel {
     #[must_use]
     pub fn new(boxes: &[Bounds], params: &TopParams) -> TopLevel {
         let tree = build_top_level_with(boxes, params);
-        let refill = builders::refill::Refill::new(&tree, &params.cost);
-        let built = (refill.cost(&tree), tree.bounds.area());
+        let area = tree.bounds.area();
+        let refill = builders::refill::Refill::new(tree, &params.cost);
+        let built = (refill.cost(), area);
         TopLevel {
-            tree,
             refill,
             params: *params,
             built,
@@ -188,8 +188,8 @@ impl TopLevel {
     pub fn update(&mut self, boxes: &[Bounds]) -> bool {
         let drift = self.params.drift;
         let (cost, area) = self.built;
-        match self.refill.refill(&mut self.tree, boxes) {
-            Some(c) if c <= drift * cost && self.tree.bounds.area() <= drift * area => false,
+        match self.refill.refill(boxes) {
+            Some(c) if c <= drift * cost && self.tree().bounds.area() <= drift * area => false,
             _ => {
                 *self = TopLevel::new(boxes, &self.params);
                 true
@@ -200,7 +200,7 @@ impl TopLevel {
     /// The tree (nodes in the kernel's treelet layout).
     #[must_use]
     pub fn tree(&self) -> &BuiltTree {
-        &self.tree
+        self.refill.tree()
     }
 }
 

@@ -171,15 +171,7 @@ fn depth_first(boxes: &[Bounds], bounds: Bounds, p: &FastParams) -> BuiltTree {
         } else if hi_max < plane {
             (0, n, start)
         } else {
-            if items.len() < end + n {
-                items.resize(end + n, Item::NONE);
-            }
-            let (cur, spare) = items[start..end + n].split_at_mut(n);
-            let (a, b) = match axis {
-                0 => partition::<0>(cur, spare, plane),
-                1 => partition::<1>(cur, spare, plane),
-                _ => partition::<2>(cur, spare, plane),
-            };
+            let (a, b) = split_run(&mut items, start, n, axis, plane);
             (a, b, end)
         };
         if n_below == n && n_above == n {
@@ -237,6 +229,28 @@ pub(super) fn partition<const A: usize>(
         n_above += usize::from(hi > plane || lo >= plane);
     }
     (n_above, n_below)
+}
+
+/// Partitions the cell's run `items[start..start + n]` at `plane` on
+/// `axis`: the above side compacted in place, the below side written
+/// past the run's end (room made there). Returns `(n_above, n_below)`.
+pub(super) fn split_run(
+    items: &mut Vec<Item>,
+    start: usize,
+    n: usize,
+    axis: usize,
+    plane: f32,
+) -> (usize, usize) {
+    let end = start + n;
+    if items.len() < end + n {
+        items.resize(end + n, Item::NONE);
+    }
+    let (cur, spare) = items[start..end + n].split_at_mut(n);
+    match axis {
+        0 => partition::<0>(cur, spare, plane),
+        1 => partition::<1>(cur, spare, plane),
+        _ => partition::<2>(cur, spare, plane),
+    }
 }
 
 /// A leaf of `items` (in index order, each once); a run of several goes

@@ -14,14 +14,16 @@
 //! drifted.
 
 use super::cost::CostModel;
-use super::fast::{leaf, partition, Item};
+use super::fast::{leaf, split_run, Item};
 use super::BuiltTree;
 use kdray_kernel::{Bounds, NodeKind};
 
-/// A tree's SAH weights and the scratch a refill uses, kept from frame to
-/// frame (no allocation after the first refill).
+/// A tree kept from frame to frame with its SAH weights and the scratch
+/// a refill uses (no allocation after the first refill).
 #[derive(Clone, Debug)]
 pub struct Refill {
+    /// The tree: its planes as built, its leaves as last refilled.
+    tree: BuiltTree,
     /// Per node: a leaf's cell area over the root cell's, times the
     /// intersection cost, as built (0 for interior nodes).
     weights: Vec<f32>,
@@ -33,10 +35,10 @@ pub struct Refill {
 }
 
 impl Refill {
-    /// The refill of `tree` (in any layout where children follow their
-    /// parent), its weights from the cells of `tree.bounds` under `cost`.
+    /// Keeps `tree` (in any layout where children follow their parent),
+    /// its weights from the cells of `tree.bounds` under `cost`.
     #[must_use]
-    pub fn new(tree: &BuiltTree, cost: &CostModel) -> Refill {
+    pub fn new(tree: BuiltTree, cost: &CostModel) -> Refill {
         let nodes = &tree.nodes;
         let root = tree.bounds.area();
         let share = |a: f64| if root > 0.0 { a / root } else { 1.0 };
@@ -60,28 +62,27 @@ impl Refill {
             }
         }
         Refill {
+            tree,
             weights,
             interior_cost,
             items: Vec::new(),
         }
     }
 
+    /// The tree as last refilled (or as built).
+    #[must_use]
+    pub fn tree(&self) -> &BuiltTree {
+        &self.tree
+    }
+
     /// Lists `boxes` (empty ones, `min > max`, left out) in the leaves of
-    /// `tree`, whose planes stay: each box in every leaf whose closed cell
-    /// it overlaps, each leaf's boxes in index order. `tree.bounds`
-    /// becomes the boxes' union; `tree.nodes` keeps its interior nodes and
-    /// layout. Returns the tree's SAH cost with the weights of the tree as
+    /// the tree, whose planes stay: each box in every leaf whose closed cell
+    /// it overlaps, each leaf's boxes in index order. Its bounds become
+    /// the boxes' union; its interior nodes and layout stay. Returns the tree's SAH cost with the weights of the tree as
     /// built ([`Refill::new`]; no empty-cell factor), `None` when no box is
     /// left (the tree is then unchanged).
-    ///
-    /// # Panics
-    /// If `tree` is not the tree this refill was made for (its node count).
-    pub fn refill(&mut self, tree: &mut BuiltTree, boxes: &[Bounds]) -> Option<f64> {
-        assert_eq!(
-            tree.nodes.len(),
-            self.weights.len(),
-            "the refill's own tree"
-        );
+    pub fn refill(&mut self, boxes: &[Bounds]) -> Option<f64> {
+        let tree = &mut self.tree;
         self.items.clear();
         let mut union = Bounds::EMPTY;
         for (id, b) in (0u32..).zip(boxes) {
@@ -110,9 +111,6 @@ impl Refill {
                 nodes[node as usize] = leaf(&self.items[start..end], &mut tree.prims);
                 continue;
             };
-            if self.items.len() < end + n {
-                self.items.resize(end + n, Item::NONE);
-            }
             // A plane that cut off empty space last frame most likely
             // still does: when a scan confirms it, nothing moves (the
             // fast builder's shortcut). The children are still last
@@ -130,12 +128,7 @@ impl Refill {
                 {
                     (0, n, start)
                 } else {
-                    let (cur, spare) = self.items[start..end + n].split_at_mut(n);
-                    let (n_above, n_below) = match a {
-                        0 => partition::<0>(cur, spare, split),
-                        1 => partition::<1>(cur, spare, split),
-                        _ => partition::<2>(cur, spare, split),
-                    };
+                    let (n_above, n_below) = split_run(&mut self.items, start, n, a, split);
                     (n_above, n_below, end)
                 };
             todo.push((child + 1, start, n_above));
@@ -145,10 +138,11 @@ impl Refill {
         Some(cost)
     }
 
-    /// The SAH cost [`Refill::refill`] measures, of `tree` as it is.
+    /// The SAH cost [`Refill::refill`] measures, of the tree as it is.
     #[must_use]
-    pub fn cost(&self, tree: &BuiltTree) -> f64 {
-        tree.nodes
+    pub fn cost(&self) -> f64 {
+        self.tree
+            .nodes
             .iter()
             .zip(&self.weights)
             .fold(self.interior_cost, |s, (n, &w)| {
@@ -221,15 +215,17 @@ mod tests {
         for n in [0, 1, 3, 40, 700] {
             let b = boxes(&mut rng, n);
             let want = built(&b);
-            let mut refill = Refill::new(&want, &COST);
+            let want_cost = Refill::new(want.clone(), &COST).cost();
             let mut tree = want.clone();
             tree.prims.clear();
-            let cost = refill.refill(&mut tree, &b);
+            let mut refill = Refill::new(tree, &COST);
+            let cost = refill.refill(&b);
+            let tree = refill.tree();
             assert_eq!(tree.nodes, want.nodes, "{n} boxes");
             assert_eq!(tree.prims, want.prims, "{n} boxes");
             assert_eq!(tree.bounds, want.bounds, "{n} boxes");
             if n > 0 {
-                assert_eq!(cost, Some(refill.cost(&want)));
+                assert_eq!(cost, Some(want_cost));
             } else {
                 assert_eq!(cost, None, "no box left");
             }
@@ -244,8 +240,7 @@ mod tests {
     fn moved_boxes_are_listed_in_every_leaf_they_reach() {
         let mut rng = Rng::new(9);
         let mut b = boxes(&mut rng, 500);
-        let mut tree = built(&b);
-        let mut refill = Refill::new(&tree, &COST);
+        let mut refill = Refill::new(built(&b), &COST);
         for frame in 0..4 {
             for (k, x) in b.iter_mut().enumerate() {
                 if x.min[0] > x.max[0] {
@@ -261,7 +256,8 @@ mod tests {
                     max: core::array::from_fn(|a| x.max[a] + d[a]),
                 };
             }
-            let cost = refill.refill(&mut tree, &b).expect("boxes");
+            let cost = refill.refill(&b).expect("boxes");
+            let tree = refill.tree();
             assert!(cost > 0.0);
             let union = b
                 .iter()
@@ -278,7 +274,7 @@ mod tests {
                     core::array::from_fn(|a| if c >> a & 1 == 0 { x.min[a] } else { x.max[a] })
                 });
                 for q in corners.chain([centre]) {
-                    let found = leaves_at(&tree, q).iter().any(|l| l.contains(&(i as u32)));
+                    let found = leaves_at(tree, q).iter().any(|l| l.contains(&(i as u32)));
                     assert!(
                         found,
                         "frame {frame}: box {i} point {q:?} in no leaf listing it"

@@ -143,3 +143,15 @@ fn tree_vs_brute_sah_hits_sliver_snapped_onto_the_origin_plane() {
         "../fuzz/regressions/tree_vs_brute/sah_hits_sliver_snapped_onto_the_origin_plane"
     ));
 }
+
+/// Found by `scene_blob` in a CI run: a ray with a direction near
+/// `f32::MAX` along y, so its extent through an instance's mesh in `t` is
+/// subnormal and the relative slack was a few subnormal steps; the mesh
+/// walk missed triangle 0, which brute force hits at the same `t = 2^-128`
+/// as triangle 2. The slack now has a floor (`SLACK_FLOOR`).
+#[test]
+fn scene_blob_subnormal_extent_slack_loses_lower_triangle() {
+    checks::scene_blob(include_bytes!(
+        "../fuzz/regressions/scene_blob/subnormal_extent_slack_loses_lower_triangle"
+    ));
+}

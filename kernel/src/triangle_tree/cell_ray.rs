@@ -23,6 +23,14 @@ use crate::triangle::ShearedRay;
 /// (2^-18 ≈ 3.8e-6, about 32 ulps of the largest `t` in the scene).
 pub(crate) const SLACK: f32 = 1.0 / 262_144.0;
 
+/// The least slack: below `f32::MIN_POSITIVE` rounding is absolute
+/// (`2^-150` a step), which a slack relative to the extent does not cover
+/// when that extent is itself subnormal (a direction near `f32::MAX`:
+/// a fuzzed scene ray whose mesh walk missed the lower of two triangles
+/// at `t = 2^-128`). `2^-126` is `2^24` such steps, and far below the
+/// relative slack of any ray whose extent is a normal number.
+pub(crate) const SLACK_FLOOR: f32 = f32::MIN_POSITIVE;
+
 /// How far the root cell reaches past each face of the scene bounds,
 /// relative to `|min| + |max| + |o|` on that axis (2^-17, `o` the
 /// origin coordinate): twice the margin by which the triangle test takes a
@@ -138,7 +146,11 @@ impl CellRay {
         // No finite extent (the dominant component's inverse overflowed
         // too): an infinite slack, every cell visited over every t.
         let slack = SLACK * zmax;
-        let slack = if slack.is_nan() { f32::INFINITY } else { slack };
+        let slack = if slack.is_nan() {
+            f32::INFINITY
+        } else {
+            Span::max(slack, SLACK_FLOOR)
+        };
         let t0 = ray.tmin.max(enter) - slack;
         let t1 = ray.tmax.min(exit) + slack;
         if t0 <= t1 {

@@ -15,7 +15,7 @@
 //! lane `min`/`max` pick either of two equal operands): the walk only
 //! compares them, where `-0 == +0`.
 
-use super::super::cell_ray::{CellRay, ROOT_MARGIN, SLACK};
+use super::super::cell_ray::{CellRay, ROOT_MARGIN, SLACK, SLACK_FLOOR};
 use super::Packet;
 use crate::blob::Node;
 use crate::geometry::{Axis, Bounds, Ray};
@@ -208,7 +208,11 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
             [V::mask(k_bits[2][0]), V::mask(k_bits[2][1])],
         ];
         let dk = [pick(&c.dir, &k_is[0]), pick(&c.dir, &k_is[1])];
+        // Floored as the single ray's; a NaN slack fails the compare and
+        // stays NaN.
         let slack = V::splat(SLACK) * pick(&zmax_of, &k_is[2]);
+        let floor = V::splat(SLACK_FLOOR);
+        let slack = V::select(slack.lt_mask(floor), floor, slack);
         let t0 = c.tmin.max(enter) - slack;
         let t1 = c.tmax.min(exit) + slack;
         let active = c.valid & t0.le(t1);

@@ -5,7 +5,7 @@
 //! The answer must be the brute-force answer bit for bit, yet `t_split`
 //! and the triangle's `t` are rounded. So every cell interval is widened by
 //! a slack `s` = [`SLACK`] × (the ray's extent through the scene bounds),
-//! far above the few ulps of rounding in either: a cell is skipped only when
+//! at least [`SLACK_FLOOR`], far above the few ulps of rounding in either: a cell is skipped only when
 //! its interval misses the current `[t_min, t_max]` by more than `s`, and a
 //! far cell popped after a hit is skipped only when it starts more than `s`
 //! beyond the best hit. Triangles are always tested against the ray's own

@@ -155,3 +155,17 @@ fn scene_blob_subnormal_extent_slack_loses_lower_triangle() {
         "../fuzz/regressions/scene_blob/subnormal_extent_slack_loses_lower_triangle"
     ));
 }
+
+/// Found by `scene_blob` in a CI run: one byte of the seed scene's
+/// top-level nodes overwritten (a split plane's sign and exponent, byte
+/// 91) and the checksum resealed, so instance 0 is no longer in the cell
+/// the ray (-1e-45, 1.2e-38, 0.75) + t (-10, -10, -10) meets it in: a
+/// well-formed blob whose tree disagrees with its instances. It loads
+/// and its queries run without a panic; the walk answers for the tree it
+/// was given, which only the unedited scene is held to (`checks::scene_blob`).
+#[test]
+fn scene_blob_resealed_split_plane_edit_runs() {
+    checks::scene_blob(include_bytes!(
+        "../fuzz/regressions/scene_blob/resealed_split_plane_edit"
+    ));
+}

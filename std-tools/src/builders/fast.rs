@@ -234,7 +234,7 @@ pub(super) fn partition<const A: usize>(
 /// Partitions the cell's run `items[start..start + n]` at `plane` on
 /// `axis`: the above side compacted in place, the below side written
 /// past the run's end (room made there). Returns `(n_above, n_below)`.
-pub(super) fn split_run(
+fn split_run(
     items: &mut Vec<Item>,
     start: usize,
     n: usize,
@@ -255,14 +255,23 @@ pub(super) fn split_run(
 
 /// A leaf of `items` (in index order, each once); a run of several goes
 /// to `prims`.
-pub(super) fn leaf(items: &[Item], prims: &mut Vec<u32>) -> Node {
-    match items {
-        [] => Node::EMPTY_LEAF,
-        [it] => Node::leaf(1, it.id()).unwrap_or(Node::EMPTY_LEAF),
-        _ => {
+fn leaf(items: &[Item], prims: &mut Vec<u32>) -> Node {
+    leaf_of(items.iter().map(Item::id), prims)
+}
+
+/// A leaf of the box indices `ids` (in index order, each once): one index
+/// in the node itself, a run of several in `prims`.
+pub(super) fn leaf_of(ids: impl ExactSizeIterator<Item = u32>, prims: &mut Vec<u32>) -> Node {
+    match ids.len() {
+        0 => Node::EMPTY_LEAF,
+        1 => ids
+            .last()
+            .and_then(|id| Node::leaf(1, id))
+            .unwrap_or(Node::EMPTY_LEAF),
+        n => {
             let at = prims.len() as u32;
-            prims.extend(items.iter().map(|it| it.id()));
-            Node::leaf(items.len() as u32, at).unwrap_or(Node::EMPTY_LEAF)
+            prims.extend(ids);
+            Node::leaf(n as u32, at).unwrap_or(Node::EMPTY_LEAF)
         }
     }
 }

@@ -256,22 +256,13 @@ fn split_run(
 /// A leaf of `items` (in index order, each once); a run of several goes
 /// to `prims`.
 fn leaf(items: &[Item], prims: &mut Vec<u32>) -> Node {
-    leaf_of(items.iter().map(Item::id), prims)
-}
-
-/// A leaf of the box indices `ids` (in index order, each once): one index
-/// in the node itself, a run of several in `prims`.
-pub(super) fn leaf_of(ids: impl ExactSizeIterator<Item = u32>, prims: &mut Vec<u32>) -> Node {
-    match ids.len() {
-        0 => Node::EMPTY_LEAF,
-        1 => ids
-            .last()
-            .and_then(|id| Node::leaf(1, id))
-            .unwrap_or(Node::EMPTY_LEAF),
-        n => {
+    match items {
+        [] => Node::EMPTY_LEAF,
+        [it] => Node::leaf(1, it.id()).unwrap_or(Node::EMPTY_LEAF),
+        _ => {
             let at = prims.len() as u32;
-            prims.extend(ids);
-            Node::leaf(n as u32, at).unwrap_or(Node::EMPTY_LEAF)
+            prims.extend(items.iter().map(|it| it.id()));
+            Node::leaf(items.len() as u32, at).unwrap_or(Node::EMPTY_LEAF)
         }
     }
 }

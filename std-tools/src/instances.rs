@@ -154,9 +154,10 @@ pub fn build_top_level_with(boxes: &[Bounds], p: &TopParams) -> BuiltTree {
 }
 
 /// A scene's top level kept from frame to frame: [`TopLevel::update`]
-/// sends the moved world boxes down the split planes it already has
-/// ([`builders::refill`]) and rebuilds only when that tree's SAH cost has
-/// drifted past [`TopParams::drift`] times its cost as built.
+/// keeps the split planes it has and sends down them only the world
+/// boxes that crossed a plane since the last frame ([`builders::refill`]),
+/// and rebuilds only when that tree's SAH cost has drifted past
+/// [`TopParams::drift`] times its cost as built.
 #[derive(Clone, Debug)]
 pub struct TopLevel {
     /// The tree and its weights.

@@ -162,15 +162,23 @@ impl<'r, V: Lanes<N>, const N: usize> LeafRay<'r, V, N> {
         }
     }
 
-    /// Does any of the triangles `prims` hit within `[tmin, tmax]`?
+    /// A triangle of `prims` that hits within `[tmin, tmax]` (the lowest
+    /// lane of the first chunk with one), if any.
     #[inline(always)]
-    pub(crate) fn any(&self, tris: &[Triangle], prims: &[u32], tmin: f32, tmax: f32) -> bool {
+    pub(crate) fn any(
+        &self,
+        tris: &[Triangle],
+        prims: &[u32],
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<u32> {
         for chunk in prims.chunks(N) {
-            if self.hits::<true>(tris, chunk, MISS, tmin, tmax).is_some() {
-                return true;
+            if let Some(h) = self.hits::<true>(tris, chunk, MISS, tmin, tmax) {
+                let l = h.hit.trailing_zeros() as usize;
+                return Some(chunk.get(l).copied().unwrap_or(MISS));
             }
         }
-        false
+        None
     }
 }
 
@@ -204,7 +212,7 @@ pub(crate) fn any_x8(
     prims: &[u32],
     tmin: f32,
     tmax: f32,
-) -> bool {
+) -> Option<u32> {
     dispatch(LeafAny {
         sr,
         tris,
@@ -241,9 +249,9 @@ struct LeafAny<'a> {
 }
 
 impl Job for LeafAny<'_> {
-    type Out = bool;
+    type Out = Option<u32>;
     #[inline(always)]
-    fn run<L: Level>(self) -> bool {
+    fn run<L: Level>(self) -> Option<u32> {
         LeafRay::<L::X8, 8>::new(self.sr).any(self.tris, self.prims, self.tmin, self.tmax)
     }
 }
@@ -294,7 +302,13 @@ mod tests {
         let lr = LeafRay::<V, N>::new(&sr);
         let mut best = Closest::new(ray.tmax);
         lr.closest(tris, prims, ray.tmin, &mut best);
-        (best.hit().bits(), lr.any(tris, prims, ray.tmin, ray.tmax))
+        let occluder = lr.any(tris, prims, ray.tmin, ray.tmax);
+        // The occluder named is a listed triangle that hits.
+        if let Some(p) = occluder {
+            assert!(prims.contains(&p));
+            assert!(sr.intersects(&tris[p as usize], ray.tmin, ray.tmax));
+        }
+        (best.hit().bits(), occluder.is_some())
     }
 
     #[test]

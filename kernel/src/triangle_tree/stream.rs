@@ -15,7 +15,7 @@ use super::cell_ray::CellRay;
 use super::walk::{AnyVisit, ClosestVisit, LeafIter, Pending, Visit};
 use super::TriangleTree;
 use crate::blob::{Node, MAX_DEPTH};
-use crate::geometry::{Hit, Ray};
+use crate::geometry::{Hit, Ray, MISS};
 use crate::lanes::Span;
 use crate::triangle::{Closest, ShearedRay};
 use core::mem::MaybeUninit;
@@ -232,6 +232,7 @@ impl Query for Any {
             sr,
             tmin: self.0,
             tmax: self.1,
+            occluder: MISS,
         }
     }
     #[inline(always)]

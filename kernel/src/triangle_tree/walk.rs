@@ -41,7 +41,7 @@ use super::counts::{Tally, TraversalCounts};
 use super::leaf_lanes::{self, LANE_LEAF_MIN};
 use super::{LeafPrims, TriangleTree};
 use crate::blob::{Node, MAX_DEPTH};
-use crate::geometry::{Hit, Ray};
+use crate::geometry::{Hit, Ray, MISS};
 use crate::lanes::Span;
 use crate::triangle::{Closest, ShearedRay, Triangle};
 use core::mem::MaybeUninit;
@@ -120,6 +120,8 @@ pub(super) struct AnyVisit<'r> {
     pub(super) sr: &'r ShearedRay,
     pub(super) tmin: f32,
     pub(super) tmax: f32,
+    /// The triangle that stopped the walk ([`MISS`] until one does).
+    pub(super) occluder: u32,
 }
 
 impl<'a, T: Tally> Visit<'a, T> for AnyVisit<'_> {
@@ -132,12 +134,15 @@ impl<'a, T: Tally> Visit<'a, T> for AnyVisit<'_> {
     fn leaf(&mut self, tris: &'a [Triangle], prims: LeafIter<'a>, tally: &mut T) -> bool {
         if let Some(run) = prims.lane_run() {
             tally.triangles(run.len());
-            return leaf_lanes::any_x8(self.sr, tris, run, self.tmin, self.tmax);
+            let occluder = leaf_lanes::any_x8(self.sr, tris, run, self.tmin, self.tmax);
+            self.occluder = occluder.unwrap_or(MISS);
+            return occluder.is_some();
         }
         for p in prims {
             if let Some(tri) = tris.get(p as usize) {
                 tally.triangles(1);
                 if self.sr.intersects(tri, self.tmin, self.tmax) {
+                    self.occluder = p;
                     return true;
                 }
             }
@@ -274,19 +279,27 @@ impl<'a> TriangleTree<'a> {
         ray: &Ray,
         tally: &mut T,
     ) -> bool {
-        let Some(sr) = ShearedRay::new(ray) else {
-            return false;
-        };
-        let Some(cr) = CellRay::new(ray, &sr, &self.bounds) else {
-            return false;
-        };
+        ShearedRay::new(ray)
+            .is_some_and(|sr| self.any_sheared::<T, DEPTH>(ray, &sr, tally).is_some())
+    }
+
+    /// The occluder of `ray` (prepared as `sr`) the walk from the root
+    /// finds, if any.
+    #[inline(always)]
+    fn any_sheared<T: Tally, const DEPTH: usize>(
+        &self,
+        ray: &Ray,
+        sr: &ShearedRay,
+        tally: &mut T,
+    ) -> Option<u32> {
+        let cr = CellRay::new(ray, sr, &self.bounds)?;
         let (lo, hi) = cr.start();
-        let start = (0, lo, hi);
-        self.any_from::<T, DEPTH>(&sr, &cr, (ray.tmin, ray.tmax), start, tally)
+        self.any_from::<T, DEPTH>(sr, &cr, (ray.tmin, ray.tmax), (0, lo, hi), tally)
     }
 
     /// The any-hit search of one ray over `[tmin, tmax]` through the
-    /// subtree at `start` = `(node, lo, hi)`.
+    /// subtree at `start` = `(node, lo, hi)`: the triangle that stopped
+    /// it, if one did.
     #[inline(always)]
     pub(crate) fn any_from<T: Tally, const DEPTH: usize>(
         &self,
@@ -295,9 +308,37 @@ impl<'a> TriangleTree<'a> {
         (tmin, tmax): (f32, f32),
         start: (u32, f32, f32),
         tally: &mut T,
-    ) -> bool {
-        let mut visit = AnyVisit { sr, tmin, tmax };
+    ) -> Option<u32> {
+        let mut visit = AnyVisit {
+            sr,
+            tmin,
+            tmax,
+            occluder: MISS,
+        };
         self.walk::<T, _, DEPTH>(cr, start, tally, &mut visit)
+            .then_some(visit.occluder)
+    }
+
+    /// [`TriangleTree::any_hit`], trying first the triangle in `last`
+    /// (a triangle index, or anything else for none) and leaving there the
+    /// triangle that occludes `ray`, when one does: an occluder cache of
+    /// one triangle. Shadow rays from nearby points towards one light are
+    /// often stopped by the same triangle, one triangle test instead of a
+    /// walk. The answer is the walk's, since a triangle that hits within
+    /// `[tmin, tmax]` is one brute force finds too.
+    #[inline]
+    pub(crate) fn any_hit_remembering(&self, ray: &Ray, last: &mut u32) -> bool {
+        let Some(sr) = ShearedRay::new(ray) else {
+            return false;
+        };
+        if let Some(tri) = self.triangles.get(*last as usize) {
+            if sr.intersects(tri, ray.tmin, ray.tmax) {
+                return true;
+            }
+        }
+        self.any_sheared::<(), STACK>(ray, &sr, &mut ())
+            .map(|p| *last = p)
+            .is_some()
     }
 
     /// One interior step of the walk at `node`, whose plane the ray
@@ -567,6 +608,37 @@ mod tests {
         assert!(
             hits > 20,
             "only {hits} hits: the test would not see a wrong walk"
+        );
+        // Shadow rays in the order of their nearby origins, towards one
+        // light, some stopped short (`tmax`): remembering the last
+        // occluder answers as the walk does, names a triangle that hits,
+        // and answers some rays with that triangle alone. `last` starts
+        // out of range.
+        let mut last = u32::MAX;
+        let (mut remembered, mut occluded) = (0, 0);
+        for k in 0..300 {
+            let origin = [0.02 + f() * 0.1, 0.3 + f() * 0.1, 0.02 + f() * 0.1];
+            let light = [1.2, 0.5, 1.1];
+            let ray = Ray {
+                origin,
+                tmin: 1e-4,
+                dir: core::array::from_fn(|a| light[a] - origin[a]),
+                tmax: if k % 3 == 0 { f() * 0.5 } else { 1.0 },
+            };
+            let cached = tris.get(last as usize);
+            let confirms = cached.is_some_and(|t| any_hit_brute(core::slice::from_ref(t), &ray));
+            let want = any_hit_brute(&tris, &ray);
+            assert_eq!(tree.any_hit_remembering(&ray, &mut last), want, "{ray:?}");
+            if want {
+                let tri = tris.get(last as usize).expect("an occluder");
+                assert!(any_hit_brute(core::slice::from_ref(tri), &ray), "{ray:?}");
+            }
+            remembered += usize::from(confirms);
+            occluded += usize::from(want);
+        }
+        assert!(
+            remembered > 20 && remembered < occluded,
+            "{remembered} of {occluded} occluded rays answered by the last occluder"
         );
     }
 }

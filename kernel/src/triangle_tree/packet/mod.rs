@@ -33,7 +33,7 @@ mod lane_rays;
 mod walk;
 
 use super::TriangleTree;
-use crate::geometry::{Bounds, Hit, Ray};
+use crate::geometry::{Bounds, Hit, Ray, MISS};
 use crate::lanes::{dispatch, Job, Lanes, Level};
 use glam::Vec3;
 use lane_rays::LaneRays;
@@ -358,6 +358,7 @@ impl<'a> TriangleTree<'a> {
         // Blocks of rays whose origins lie far apart share no cells: single
         // rays walked in turns (`stream.rs`). Blocks hold whole packets of
         // every width, so the others are packed as the slice is.
+        let mut memo = Q::Memo::default();
         for (rays, out) in rays.chunks(BLOCK).zip(out.chunks_mut(BLOCK)) {
             if IN_TURNS && scattered(rays, &self.bounds) {
                 Q::stream(self, rays, out);
@@ -366,7 +367,7 @@ impl<'a> TriangleTree<'a> {
             match width {
                 PacketWidth::One => {
                     for (o, r) in out.iter_mut().zip(rays) {
-                        *o = Q::one(self, r);
+                        *o = Q::one_after(self, r, &mut memo);
                     }
                 }
                 PacketWidth::Four => dispatch(Slice4::<Q>(self, rays, out)),
@@ -475,7 +476,11 @@ slice_jobs! {
 trait SliceQuery {
     /// One ray's answer.
     type Out: Copy;
+    /// What one ray's query leaves for the next in a coherent slice.
+    type Memo: Default;
     fn one(tree: &TriangleTree<'_>, ray: &Ray) -> Self::Out;
+    /// One ray's answer, after the ray before it in a coherent slice.
+    fn one_after(tree: &TriangleTree<'_>, ray: &Ray, memo: &mut Self::Memo) -> Self::Out;
     /// Each ray's answer, single rays walked in turns (`stream.rs`).
     fn stream(tree: &TriangleTree<'_>, rays: &[Ray], out: &mut [Self::Out]);
     fn lanes<V: Lanes<N>, const N: usize>(
@@ -490,8 +495,13 @@ struct ClosestHit;
 
 impl SliceQuery for ClosestHit {
     type Out = Hit;
+    type Memo = ();
     #[inline(always)]
     fn one(tree: &TriangleTree<'_>, ray: &Ray) -> Hit {
+        tree.closest_hit(ray)
+    }
+    #[inline(always)]
+    fn one_after(tree: &TriangleTree<'_>, ray: &Ray, (): &mut ()) -> Hit {
         tree.closest_hit(ray)
     }
     #[inline(always)]
@@ -511,11 +521,26 @@ impl SliceQuery for ClosestHit {
 /// Any hit (occlusion).
 struct AnyHit;
 
+/// The triangle that occluded the last ray ([`MISS`] before any did).
+struct Occluder(u32);
+
+impl Default for Occluder {
+    fn default() -> Occluder {
+        Occluder(MISS)
+    }
+}
+
 impl SliceQuery for AnyHit {
     type Out = bool;
+    /// The last occluder (an occluder cache of one triangle).
+    type Memo = Occluder;
     #[inline(always)]
     fn one(tree: &TriangleTree<'_>, ray: &Ray) -> bool {
         tree.any_hit(ray)
+    }
+    #[inline(always)]
+    fn one_after(tree: &TriangleTree<'_>, ray: &Ray, memo: &mut Occluder) -> bool {
+        tree.any_hit_remembering(ray, &mut memo.0)
     }
     #[inline(always)]
     fn stream(tree: &TriangleTree<'_>, rays: &[Ray], out: &mut [bool]) {

@@ -278,6 +278,7 @@ impl<'a> TriangleTree<'a> {
         if !lr.coherent {
             let hit = lr.alone(false, |one, start| {
                 self.any_from::<_, STACK>(&one.sr, &one.cr, (one.tmin, one.tmax), start, &mut ())
+                    .is_some()
             });
             return hit
                 .iter()

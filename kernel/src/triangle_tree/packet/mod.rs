@@ -532,7 +532,12 @@ impl Default for Occluder {
 
 impl SliceQuery for AnyHit {
     type Out = bool;
-    /// The last occluder (an occluder cache of one triangle).
+    /// The last occluder (an occluder cache of one triangle), kept by
+    /// single rays. Tried for packets too (the last occluder tested on
+    /// every lane before the walk, the walk naming its occluder): 8- and
+    /// 16-wide Morton-ordered shadow packets ran 0.6-0.94x, the lane test
+    /// and the walk's extra state costing more than the rare packet whose
+    /// lanes it all answered.
     type Memo = Occluder;
     #[inline(always)]
     fn one(tree: &TriangleTree<'_>, ray: &Ray) -> bool {

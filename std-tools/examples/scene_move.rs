@@ -53,8 +53,20 @@ fn main() {
         update_t,
         cost(&fresh),
         cost(kept.tree()),
-        kept.tree().prims.len(),
+        listed(kept.tree()),
     );
+}
+
+/// How many instance references the leaves of `t` hold (its `prims` may
+/// also hold room for runs to grow).
+fn listed(t: &kdray_tools::builders::BuiltTree) -> u32 {
+    t.nodes
+        .iter()
+        .map(|n| match n.kind() {
+            kdray_kernel::NodeKind::Leaf { count, .. } => count,
+            kdray_kernel::NodeKind::Interior { .. } => 0,
+        })
+        .sum()
 }
 
 /// Best, mean and worst of a series of times.

@@ -198,7 +198,8 @@ impl TopLevel {
         }
     }
 
-    /// The tree (nodes in the kernel's treelet layout).
+    /// The tree (nodes in the kernel's treelet layout; `prims` with room
+    /// after each leaf's run, [`builders::refill::Refill::tree`]).
     #[must_use]
     pub fn tree(&self) -> &BuiltTree {
         self.refill.tree()

@@ -214,7 +214,9 @@ impl Refill {
         }
     }
 
-    /// The tree as last refilled (or as built).
+    /// The tree as last refilled (or as built). After a refill its
+    /// `prims` hold each leaf's run with room after it (unused entries
+    /// name some box), so `prims.len()` is not the number of references.
     #[must_use]
     pub fn tree(&self) -> &BuiltTree {
         &self.tree

@@ -326,8 +326,38 @@ impl<'a> TriangleTree<'a> {
     /// often stopped by the same triangle, one triangle test instead of a
     /// walk. The answer is the walk's, since a triangle that hits within
     /// `[tmin, tmax]` is one brute force finds too.
+    ///
+    /// For an engine that traces shadow rays one at a time, in the order
+    /// of the pixels that produced them (one `last` per thread and light;
+    /// [`TriangleTree::any_hits`] keeps one itself). On shadow rays in the
+    /// Morton order of their origins it answers 40-76% of the occluded
+    /// rays of the bunny, sponza and teapot alone (docs/results.md).
+    ///
+    /// # Panics
+    /// Never.
+    ///
+    /// # Example
+    /// ```
+    /// use glam::Vec3;
+    /// use kdray_kernel::{Ray, TriangleTree, MISS};
+    /// static CUBE: &kdray_kernel::Aligned<[u8]> =
+    ///     kdray_kernel::include_aligned!("../../golden/cube-v2.kdt");
+    /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
+    ///
+    /// // Points on a row inside the cube, towards a light outside it.
+    /// let light = Vec3::new(2.0, 0.5, 0.5);
+    /// let mut last = MISS;
+    /// for i in 0..8 {
+    ///     let p = Vec3::new(0.5, 0.1 + i as f32 * 0.1, 0.5);
+    ///     let ray = Ray::with_range(p, light - p, 1e-4, 1.0);
+    ///     assert_eq!(tree.any_hit_remembering(&ray, &mut last), tree.any_hit(&ray));
+    /// }
+    /// assert!(last != MISS); // a wall of the cube occluded them
+    /// # Ok::<(), kdray_kernel::BlobError>(())
+    /// ```
     #[inline]
-    pub(crate) fn any_hit_remembering(&self, ray: &Ray, last: &mut u32) -> bool {
+    #[must_use]
+    pub fn any_hit_remembering(&self, ray: &Ray, last: &mut u32) -> bool {
         let Some(sr) = ShearedRay::new(ray) else {
             return false;
         };

@@ -134,9 +134,9 @@ impl<'a, T: Tally> Visit<'a, T> for AnyVisit<'_> {
     fn leaf(&mut self, tris: &'a [Triangle], prims: LeafIter<'a>, tally: &mut T) -> bool {
         if let Some(run) = prims.lane_run() {
             tally.triangles(run.len());
-            let occluder = leaf_lanes::any_x8(self.sr, tris, run, self.tmin, self.tmax);
-            self.occluder = occluder.unwrap_or(MISS);
-            return occluder.is_some();
+            return leaf_lanes::any_x8(self.sr, tris, run, self.tmin, self.tmax)
+                .map(|p| self.occluder = p)
+                .is_some();
         }
         for p in prims {
             if let Some(tri) = tris.get(p as usize) {

@@ -9,10 +9,11 @@
 //! in range reaches the same leaves, so only the others are taken out of
 //! their old leaves and sent down again (docs/results.md, `## Scenes`).
 //! Tried: every box of the frame partitioned cell by cell down the planes
-//! (the fast builder's partition): ~350,000 box visits and 12.1 M
-//! instructions a frame for 10,000 instances against 2.9 M here, where a
-//! frame of small motions moves ~3% of the boxes across a plane; 1.2x
-//! slower in wall clock (the state kept here, 72 bytes a box, misses L2).
+//! (the fast builder's partition), where a frame of small motions moves
+//! ~3% of the boxes across a plane: ~350,000 box visits and 12.1 M
+//! instructions a frame for 10,000 instances against 2.9 M here, and
+//! ~1.2x the wall clock (not 4x: the state kept here, 72 bytes a box,
+//! with the nodes and runs, passes the L2 cache).
 //!
 //! Any finite planes give a valid tree whose walk finds every hit: a box
 //! is listed in every leaf whose closed cell it overlaps, whatever the
@@ -57,7 +58,8 @@ struct Track {
     run_of: Vec<u32>,
     /// Each leaf's run in the tree's `prims`.
     runs: Vec<Run>,
-    /// How many box references the leaves hold.
+    /// Entries of `prims` the runs own, their room included (the rest is
+    /// left behind by runs that moved).
     live: usize,
     /// The SAH cost of the tree as it is.
     cost: f64,
@@ -259,18 +261,20 @@ impl Refill {
     /// The SAH cost [`Refill::refill`] measures, of the tree as it is.
     #[must_use]
     pub fn cost(&self) -> f64 {
-        self.tree
-            .nodes
-            .iter()
-            .zip(&self.weights)
-            .fold(self.interior_cost, |s, (n, &w)| {
-                let count = match n.kind() {
-                    NodeKind::Leaf { count, .. } => count,
-                    NodeKind::Interior { .. } => 0,
-                };
-                s + f64::from(w * count as f32)
-            })
+        sah_cost(&self.tree.nodes, &self.weights, self.interior_cost)
     }
+}
+
+/// The SAH cost of `nodes` with the leaves' `weights` and the interior
+/// nodes' share `interior_cost` ([`Refill::new`]).
+fn sah_cost(nodes: &[Node], weights: &[f32], interior_cost: f64) -> f64 {
+    nodes.iter().zip(weights).fold(interior_cost, |s, (n, &w)| {
+        let count = match n.kind() {
+            NodeKind::Leaf { count, .. } => count,
+            NodeKind::Interior { .. } => 0,
+        };
+        s + f64::from(w * count as f32)
+    })
 }
 
 /// Room a leaf's run gets beyond its boxes when laid out.
@@ -288,7 +292,7 @@ impl Track {
             run_of: vec![u32::MAX; nodes.len()],
             runs: Vec::new(),
             live: 0,
-            cost: interior_cost,
+            cost: 0.0,
             todo: vec![0],
             reached: Vec::new(),
         };
@@ -323,12 +327,11 @@ impl Track {
                 });
             }
         }
+        // The runs packed, filled, then laid out with their room.
         let mut at = 0;
         for r in &mut t.runs {
-            r.at = at;
-            r.cap = room(r.len);
+            (r.at, r.cap, r.len) = (at, r.len, 0);
             at += r.cap;
-            r.len = 0;
         }
         tree.prims.clear();
         tree.prims.resize(at as usize, 0);
@@ -337,11 +340,8 @@ impl Track {
             tree.prims[(run.at + run.len) as usize] = id;
             run.len += 1;
         }
-        t.live = tree.prims.len();
-        for run in &t.runs {
-            tree.nodes[run.node as usize] = run.node(&tree.prims);
-            t.cost += f64::from(weights[run.node as usize] * run.len as f32);
-        }
+        t.compact(tree);
+        t.cost = sah_cost(&tree.nodes, weights, interior_cost);
         t
     }
 

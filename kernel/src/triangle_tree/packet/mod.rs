@@ -479,8 +479,12 @@ trait SliceQuery {
     /// What one ray's query leaves for the next in a coherent slice.
     type Memo: Default;
     fn one(tree: &TriangleTree<'_>, ray: &Ray) -> Self::Out;
-    /// One ray's answer, after the ray before it in a coherent slice.
-    fn one_after(tree: &TriangleTree<'_>, ray: &Ray, memo: &mut Self::Memo) -> Self::Out;
+    /// One ray's answer, after the ray before it in a coherent slice
+    /// (by default, [`SliceQuery::one`]).
+    #[inline(always)]
+    fn one_after(tree: &TriangleTree<'_>, ray: &Ray, _: &mut Self::Memo) -> Self::Out {
+        Self::one(tree, ray)
+    }
     /// Each ray's answer, single rays walked in turns (`stream.rs`).
     fn stream(tree: &TriangleTree<'_>, rays: &[Ray], out: &mut [Self::Out]);
     fn lanes<V: Lanes<N>, const N: usize>(
@@ -498,10 +502,6 @@ impl SliceQuery for ClosestHit {
     type Memo = ();
     #[inline(always)]
     fn one(tree: &TriangleTree<'_>, ray: &Ray) -> Hit {
-        tree.closest_hit(ray)
-    }
-    #[inline(always)]
-    fn one_after(tree: &TriangleTree<'_>, ray: &Ray, (): &mut ()) -> Hit {
         tree.closest_hit(ray)
     }
     #[inline(always)]

@@ -16,7 +16,7 @@ pub fn closest_hit_brute(triangles: &[Triangle], ray: &Ray) -> Hit {
     for (i, tri) in triangles.iter().enumerate() {
         best.offer(&sr, tri, i as u32, ray.tmin);
     }
-    best.hit()
+    best.hit(&sr, triangles)
 }
 
 /// The brute-force any-hit answer: does any triangle hit `ray` in

@@ -24,6 +24,11 @@ pub(crate) struct LaneHits<V> {
     pub(crate) w: V,
     /// Each lane's determinant (the sum of the three edge functions).
     pub(crate) det: V,
+    /// Lanes taken without the `f64` `t` ([`sure_hit`](super::sure_hit)):
+    /// their `t` is the estimate, their `f64` `t` lies in their window.
+    pub(crate) sure: u32,
+    /// Each lane's window `(lo, hi)`.
+    pub(crate) window: (V, V),
 }
 
 /// The watertight test's arithmetic after the shear, lane by lane: the
@@ -35,12 +40,13 @@ pub(crate) struct LaneHits<V> {
 /// [`plane_t`](super::plane_t) into [`LaneWindow::t`] for the lanes in
 /// [`LaneWindow::exact`], then takes [`LaneWindow::hits`] (not a closure
 /// passed in: a closure stays out of line, compiled without the level's
-/// vector features, [`crate::lanes::dispatch`]). `ANY`: only the hit mask
-/// is wanted (any hit), and lanes clearly inside their interval skip the
-/// `f64` `t`.
+/// vector features, [`crate::lanes::dispatch`]). `SURE`: lanes clearly
+/// inside their interval ([`sure_hit`](super::sure_hit)) skip the `f64`
+/// `t` (an any-hit test, and the single ray's deferred closest hit,
+/// [`Closest`](super::Closest)).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn watertight<V: Lanes<N>, const N: usize, const ANY: bool>(
+pub(crate) fn watertight<V: Lanes<N>, const N: usize, const SURE: bool>(
     a: (V, V, V),
     b: (V, V, V),
     c: (V, V, V),
@@ -85,10 +91,11 @@ pub(crate) fn watertight<V: Lanes<N>, const N: usize, const ANY: bool>(
     if hit == 0 {
         return None;
     }
-    // An any-hit query takes the windows clearly inside as they are.
-    let sure = if ANY {
+    // The windows clearly inside, as `sure_hit` takes them.
+    let sure = if SURE {
         let well = shape.lt_mask(V::splat(WELL_SHAPED));
-        hit & (lo.ge_mask(tmin) & hi.le_mask(tmax) & hi.lt_mask(inf) & well).bits()
+        let finite = V::splat(f32::NEG_INFINITY).lt_mask(lo) & hi.lt_mask(inf);
+        hit & (lo.ge_mask(tmin) & hi.le_mask(tmax) & finite & well).bits()
     } else {
         0
     };
@@ -140,6 +147,8 @@ impl<V: Lanes<N>, const N: usize> LaneWindow<V, N> {
             v: self.v,
             w: self.w,
             det: self.det,
+            sure: self.sure,
+            window: self.window,
         })
     }
 }

@@ -60,7 +60,7 @@ pub(crate) use closest::Closest;
 pub use spawn::SurfacePoint;
 
 use crate::geometry::{ray_is_valid, Bounds, Hit, Ray};
-use crate::lanes::{Lanes, Real};
+use crate::lanes::{dispatch, Job, Lanes, Level, Real};
 use bytemuck::{Pod, Zeroable};
 
 /// The largest vertex coordinate magnitude the watertight test handles:
@@ -236,7 +236,7 @@ impl ShearedRay {
         if hi < tmin || lo > tmax {
             return false;
         }
-        if lo >= tmin && hi <= tmax && hi < f32::INFINITY && shape < WELL_SHAPED {
+        if sure_hit((lo, hi), shape, tmin, tmax) {
             return true;
         }
         let t = plane_t(&self.org, &self.dir, tri);
@@ -320,12 +320,31 @@ pub(crate) fn exact_t_hits(t: f32, (lo, hi): (f32, f32), tmin: f32, tmax: f32) -
     t >= tmin && t <= tmax && t.is_finite() && !(t < lo || t > hi)
 }
 
+/// Is a triangle whose edge test passed with the window `(lo, hi)` and
+/// conditioning `shape` ([`t_window`]) a hit over `[tmin, tmax]` whatever
+/// its `f64` `t`? When the window lies inside the interval and the
+/// triangle is well shaped ([`WELL_SHAPED`]): [`plane_t`]'s `t` then lies
+/// in the window, so [`exact_t_hits`] holds (the window finite at both
+/// ends: an infinite `t` is no hit). An any-hit test stops there;
+/// a closest-hit search defers the `f64` `t` ([`Closest`]).
+#[inline(always)]
+pub(crate) fn sure_hit((lo, hi): (f32, f32), shape: f32, tmin: f32, tmax: f32) -> bool {
+    lo >= tmin && hi <= tmax && -f32::INFINITY < lo && hi < f32::INFINITY && shape < WELL_SHAPED
+}
+
 /// The window's scale on the sheared shape's conditioning, `2^-12`: the
 /// analysis below bounds the error by `2^-16.2` of that term.
 const WINDOW_SHAPE: f32 = 1.0 / 4096.0;
 /// The window's scale on the heights, `2^-18`: the rounding of the
 /// barycentric sum and of the products bounds it by `2^-20.3`.
 const WINDOW_HEIGHT: f32 = 1.0 / 262_144.0;
+
+/// The window's absolute term, `2^-140`, in both of its parts: the
+/// analysis above is relative, and products that fall below `f32`'s
+/// normal range (an origin `1e-40` off a triangle's plane, edge functions
+/// of a tiny triangle) round with an absolute error of `2^-150` instead;
+/// this covers a thousand such roundings.
+const WINDOW_UNDERFLOW: f32 = f32::from_bits(1 << 9); // 2^9 times the least subnormal, 2^-149
 
 /// The `f32` estimate of `t` from the sheared vertices (`xy`: `[ax, ay,
 /// bx, by, cx, cy]`, `z`: their heights), their edge functions `uvw`
@@ -360,8 +379,9 @@ pub(crate) fn t_window<S: Real>(xy: [S; 6], z: [S; 3], uvw: [S; 3], det: S, sz: 
     let (zmax, zmin) = (az.max(bz).max(cz), az.min(bz).min(cz));
     let zabs = zmax.max(S::splat(0.0) - zmin);
     let asz = sz.abs();
-    let shape = m * (m + zabs) * rdet.abs() * S::splat(WINDOW_SHAPE);
-    let slack = shape * ((zmax - zmin) * asz) + zabs * asz * S::splat(WINDOW_HEIGHT);
+    let shape = (m * (m + zabs) * S::splat(WINDOW_SHAPE) + S::splat(WINDOW_UNDERFLOW)) * rdet.abs();
+    let slack = shape * ((zmax - zmin) * asz)
+        + (zabs * S::splat(WINDOW_HEIGHT) + S::splat(WINDOW_UNDERFLOW)) * asz;
     (t_est, slack, shape)
 }
 
@@ -420,6 +440,29 @@ pub(crate) fn plane_t_at<V: Lanes<N>, const N: usize>(
         return unsafe { plane_x86::plane_t(org, dir, tri) };
     }
     plane_t(org, dir, tri)
+}
+
+/// [`plane_t`] at the instruction set level [`crate::cpu::isa`] chose
+/// (the same bits at every level), for code outside a lane job.
+#[inline]
+#[must_use]
+pub(crate) fn plane_t_dispatched(org: &[f32; 3], dir: &[f32; 3], tri: &Triangle) -> f32 {
+    dispatch(PlaneT { org, dir, tri })
+}
+
+/// [`plane_t_dispatched`]'s arguments.
+struct PlaneT<'a> {
+    org: &'a [f32; 3],
+    dir: &'a [f32; 3],
+    tri: &'a Triangle,
+}
+
+impl Job for PlaneT<'_> {
+    type Out = f32;
+    #[inline(always)]
+    fn run<L: Level>(self) -> f32 {
+        plane_t_at::<L::X8, 8>(self.org, self.dir, self.tri)
+    }
 }
 
 /// [`plane_t`] of each lane's ray against one triangle `tri`, into `t`
@@ -814,6 +857,39 @@ mod tests {
             assert_eq!(closest_hit_brute(&t, &r), Hit::MISS, "{r:?}");
             assert!(!any_hit_brute(&t, &r));
         }
+    }
+
+    #[test]
+    fn hit_at_a_subnormal_t_is_a_hit() {
+        // The origin 1e-40 off the triangle's plane (x = 0): the heights
+        // and `t` are subnormal and round by an absolute 2^-150, which the
+        // relative window alone did not hold: the `f64` `t` fell outside
+        // it, and the hit was refused.
+        let t = tri([0.0, 0.0, 0.0], [0.0, 0.0, 0.75], [0.0, 0.75, 0.5]);
+        let r = ray(
+            [-1e-40, 0.205_905_56, 0.371_435_88],
+            [0.75, -0.614_305, 0.562_131_4],
+        );
+        let h = closest_hit_brute(&[t], &r);
+        assert!(h.is_hit());
+        let want = 1e-40 / 0.75;
+        assert!((f64::from(h.t) - want).abs() <= want * 1e-4, "{h:?}");
+        assert!(any_hit_brute(&[t], &r));
+    }
+
+    #[test]
+    fn a_window_infinite_at_either_end_is_never_sure() {
+        // `t` may then be infinite, which is no hit.
+        let shape = 1.0;
+        assert!(sure_hit((0.5, 1.0), shape, 0.0, 2.0));
+        assert!(!sure_hit(
+            (f32::NEG_INFINITY, 1.0),
+            shape,
+            f32::NEG_INFINITY,
+            2.0
+        ));
+        assert!(!sure_hit((0.5, f32::INFINITY), shape, 0.0, f32::INFINITY));
+        assert!(!sure_hit((0.5, 1.0), WELL_SHAPED, 0.0, 2.0));
     }
 
     #[test]

@@ -212,8 +212,9 @@ trait Query: Sized {
     fn new(ray: &Ray) -> Self;
     /// The leaf search of `sr` (`walk.rs`'s visitors).
     fn visit<'r, 'a>(&'r mut self, sr: &'r ShearedRay) -> impl Visit<'a, ()> + 'r;
-    /// The answer once the walk ended (`stopped` as `walk` returns it).
-    fn answer(&self, stopped: bool) -> Self::Out;
+    /// The answer once the walk of `sr` through `tree` ended (`stopped`
+    /// as `walk` returns it).
+    fn answer(&mut self, stopped: bool, sr: &ShearedRay, tree: &TriangleTree) -> Self::Out;
 }
 
 /// Any hit over `[tmin, tmax]`.
@@ -236,7 +237,7 @@ impl Query for Any {
         }
     }
     #[inline(always)]
-    fn answer(&self, stopped: bool) -> bool {
+    fn answer(&mut self, stopped: bool, _: &ShearedRay, _: &TriangleTree) -> bool {
         stopped
     }
 }
@@ -260,8 +261,8 @@ impl Query for Nearest {
         }
     }
     #[inline(always)]
-    fn answer(&self, _: bool) -> Hit {
-        self.1.hit()
+    fn answer(&mut self, _: bool, sr: &ShearedRay, tree: &TriangleTree) -> Hit {
+        self.1.hit(sr, tree.triangles)
     }
 }
 
@@ -312,7 +313,7 @@ impl TriangleTree<'_> {
                 let ended = self.turn(cr, w, &mut q.visit(sr));
                 if let Some(stopped) = ended {
                     if let Some(o) = out.get_mut(*at) {
-                        *o = q.answer(stopped);
+                        *o = q.answer(stopped, sr, self);
                     }
                     *slot = None;
                     live -= 1;

@@ -108,7 +108,7 @@ impl<'a, T: Tally> Visit<'a, T> for ClosestVisit<'_> {
         for p in prims {
             if let Some(tri) = tris.get(p as usize) {
                 tally.triangles(1);
-                self.best.offer(self.sr, tri, p, self.tmin);
+                self.best.consider(self.sr, tris, tri, p, self.tmin);
             }
         }
         false
@@ -214,7 +214,7 @@ impl<'a> TriangleTree<'a> {
         let (lo, hi) = cr.start();
         let start = (0, lo, hi);
         self.closest_from::<T, DEPTH>(&sr, &cr, ray.tmin, &mut best, start, tally);
-        best.hit()
+        best.hit(&sr, self.triangles)
     }
 
     /// The closest-hit search of one ray through the subtree at `start` =

@@ -253,7 +253,7 @@ impl<'a> TriangleTree<'a> {
                     start,
                     &mut (),
                 );
-                best.hit()
+                best.hit(&one.sr, self.triangles)
             });
         }
         let mut visit = ClosestLanes {

@@ -402,7 +402,7 @@ pub(crate) const WELL_SHAPED: f32 = 16.0;
 /// is `+0`; so is the denominator: the ray runs in the plane, or the
 /// triangle is degenerate (its normal is rounding noise), and `t` is NaN:
 /// no hit.
-#[inline]
+#[inline(never)]
 #[must_use]
 pub(crate) fn plane_t(org: &[f32; 3], dir: &[f32; 3], tri: &Triangle) -> f32 {
     let Some(t) = Plane::of(tri).ray_t(&tri.v[0], org, dir) else {

@@ -169,3 +169,15 @@ fn scene_blob_resealed_split_plane_edit_runs() {
         "../fuzz/regressions/scene_blob/resealed_split_plane_edit"
     ));
 }
+
+/// Found by `packet_vs_single` (a debug assertion): the walk deferred the
+/// `f64` `t` of a hit whose window had rounded to `[-0, 0]` (heights of
+/// 1e-38 times a shear of 1e-34: the estimate and the slack underflowed),
+/// and `plane_t` gave `-1e-45`, outside it. The window now has an
+/// absolute floor on `t` itself (`WINDOW_UNDERFLOW`).
+#[test]
+fn packet_vs_single_sure_window_underflows_to_zero_width() {
+    checks::packet_vs_single(include_bytes!(
+        "../fuzz/regressions/packet_vs_single/sure_window_underflows_to_zero_width"
+    ));
+}

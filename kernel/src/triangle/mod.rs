@@ -339,11 +339,12 @@ const WINDOW_SHAPE: f32 = 1.0 / 4096.0;
 /// barycentric sum and of the products bounds it by `2^-20.3`.
 const WINDOW_HEIGHT: f32 = 1.0 / 262_144.0;
 
-/// The window's absolute term, `2^-140`, in both of its parts: the
-/// analysis above is relative, and products that fall below `f32`'s
-/// normal range (an origin `1e-40` off a triangle's plane, edge functions
-/// of a tiny triangle) round with an absolute error of `2^-150` instead;
-/// this covers a thousand such roundings.
+/// The window's absolute term, `2^-140`, in each of its parts and on `t`
+/// itself: the analysis above is relative, and products that fall below
+/// `f32`'s normal range (an origin `1e-40` off a triangle's plane, edge
+/// functions of a tiny triangle, a height times a tiny `sz` rounding to
+/// zero) round with an absolute error of `2^-150` instead; this covers a
+/// thousand such roundings.
 const WINDOW_UNDERFLOW: f32 = f32::from_bits(1 << 9); // 2^9 times the least subnormal, 2^-149
 
 /// The `f32` estimate of `t` from the sheared vertices (`xy`: `[ax, ay,
@@ -381,7 +382,8 @@ pub(crate) fn t_window<S: Real>(xy: [S; 6], z: [S; 3], uvw: [S; 3], det: S, sz: 
     let asz = sz.abs();
     let shape = (m * (m + zabs) * S::splat(WINDOW_SHAPE) + S::splat(WINDOW_UNDERFLOW)) * rdet.abs();
     let slack = shape * ((zmax - zmin) * asz)
-        + (zabs * S::splat(WINDOW_HEIGHT) + S::splat(WINDOW_UNDERFLOW)) * asz;
+        + (zabs * S::splat(WINDOW_HEIGHT) + S::splat(WINDOW_UNDERFLOW)) * asz
+        + S::splat(WINDOW_UNDERFLOW);
     (t_est, slack, shape)
 }
 

@@ -220,7 +220,7 @@ fn slice_entry_points_match_single_rays() {
         })
         .collect();
     // From one origin: the slices trace those in packets (scattered
-    // origins go as single rays in turns).
+    // origins go as single rays in turns over trees above 1 MiB).
     let b = tree.bounds();
     let centre = std::array::from_fn(|a| (b.min[a] + b.max[a]) / 2.0);
     let fan: Vec<Ray> = coherent

@@ -276,7 +276,8 @@ fn packet_lanes<'t, const N: usize>(
     }
     assert_lanes(tree, &p, closest(tree, &p), any(tree, &p));
     // The same rays through the slice entry points, which walk rays with
-    // scattered origins as single rays in turns.
+    // scattered origins as single rays in turns (every tree under
+    // `cfg(fuzzing)`; trees above 1 MiB otherwise).
     let rays: Vec<Ray> = (0..N).map(|l| p.ray(l)).collect();
     let mut hits = vec![Hit::MISS; N];
     tree.closest_hits_with(PacketWidth::One, &rays, &mut hits);

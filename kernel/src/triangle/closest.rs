@@ -8,15 +8,15 @@
 //! to be compared, though its `t` window ([`t_window`](super::t_window))
 //! usually decides the comparison alone. So the walk ([`Closest::consider`],
 //! [`Closest::keep_within`]) keeps a well-shaped hit whose window lies
-//! inside the interval ([`sure_hit`]) with its window only: its `f64` `t`
+//! inside the interval ([`sure_hit`](super::sure_hit)) with its window only: its `f64` `t`
 //! lies in the window, so a later triangle whose window lies wholly below
 //! it wins and one wholly above loses, without either `t`. Only
 //! overlapping windows, and the winner at the end, take the `f64` `t`.
 //! The answer is the one the eager rule ([`Closest::offer`], brute force)
 //! gives: each comparison it skips, the windows decide the same way.
-//! (Sponza's camera rays took 2.1 `f64` `t`s a ray eagerly, for 0.7 hits.)
+//! (Sponza's camera rays took 1.1 `f64` `t`s a ray eagerly, for 0.71 hits.)
 
-use super::{exact_t_hits, plane_t_dispatched, sure_hit, ShearedRay, Triangle, TriangleHit};
+use super::{exact_t_hits, plane_t_dispatched, ShearedRay, Triangle, TriangleHit};
 use crate::geometry::{Hit, MISS};
 
 /// The running closest hit: smallest `t`, then lowest triangle index. The
@@ -77,20 +77,15 @@ impl Closest {
         if prim == self.prim {
             return;
         }
-        let Some((e, (t_est, slack, shape))) = sr.edges(tri) else {
+        let Some((e, window, sure)) = sr.window(tri, tmin, self.t) else {
             return;
         };
-        let (lo, hi) = (t_est - slack, t_est + slack);
-        // Clearly outside [tmin, t] (a NaN window rejects nothing).
-        if hi < tmin || lo > self.t {
-            return;
-        }
-        if sure_hit((lo, hi), shape, tmin, self.t) {
-            self.keep_within(e, (lo, hi), prim, sr, tris);
+        if sure {
+            self.keep_within(e, window, prim, sr, tris);
             return;
         }
         let t = plane_t_dispatched(&sr.org, &sr.dir, tri);
-        if exact_t_hits(t, (lo, hi), tmin, self.t) {
+        if exact_t_hits(t, window, tmin, self.t) {
             self.keep(TriangleHit { t, ..e }, prim, sr, tris);
         }
     }
@@ -115,7 +110,7 @@ impl Closest {
     }
 
     /// Keeps the hit `e` of triangle `prim` if it wins, given only its
-    /// window `(lo, hi)` ([`sure_hit`] over `[tmin, t]` for a `t` at least
+    /// window `(lo, hi)` ([`sure_hit`](super::sure_hit) over `[tmin, t]` for a `t` at least
     /// [`Closest::t`]'s value now): deferred while the windows decide.
     #[inline(always)]
     pub(crate) fn keep_within(

@@ -91,7 +91,7 @@ pub(crate) fn watertight<V: Lanes<N>, const N: usize, const SURE: bool>(
     if hit == 0 {
         return None;
     }
-    // The windows clearly inside, as `sure_hit` takes them.
+    // `sure_hit`, lane by lane.
     let sure = if SURE {
         let well = shape.lt_mask(V::splat(WELL_SHAPED));
         let finite = V::splat(f32::NEG_INFINITY).lt_mask(lo) & hi.lt_mask(inf);

@@ -200,8 +200,8 @@ fn up(x: f64) -> f32 {
     -down(-x)
 }
 
-/// The `f32` below `f` (finite `f`; infinities and NaN are kept), with
-/// selects as in [`down`].
+/// The `f32` below `f` (`f32::MAX` below `+inf`; `-inf` and NaN are
+/// kept), with selects as in [`down`].
 fn next_down(f: f32) -> f32 {
     let b = f.to_bits();
     let stepped = if f > 0.0 {
@@ -211,10 +211,10 @@ fn next_down(f: f32) -> f32 {
     };
     // Either zero steps to the negative least subnormal.
     let stepped = if f == 0.0 { 0x8000_0001 } else { stepped };
-    if f.is_finite() {
-        f32::from_bits(stepped)
-    } else {
+    if f.is_nan() || f == f32::NEG_INFINITY {
         f
+    } else {
+        f32::from_bits(stepped)
     }
 }
 
@@ -328,5 +328,27 @@ mod tests {
             assert!(w.contains(q), "{q:?} outside {w:?}");
         }
         assert!(w.max[0] < 103.0 && w.min[2] > -0.6, "{w:?}");
+    }
+
+    #[test]
+    fn outward_rounding_is_the_nearest_f32_on_the_safe_side() {
+        let third = 1.0f64 / 3.0;
+        for x in [third, -third, 1e30 / 3.0, -1e-40 / 3.0, 2.5e-46, -2.5e-46] {
+            let (lo, hi) = (down(x), up(x));
+            assert!(f64::from(lo) <= x && x <= f64::from(hi), "{x}: {lo} {hi}");
+            assert_eq!(lo.next_up(), hi, "{x}: one step apart");
+        }
+        // Exact values stay; zero steps outwards only when it must.
+        assert_eq!((down(1.5), up(1.5)), (1.5, 1.5));
+        assert_eq!((down(0.0), up(0.0)), (0.0, 0.0));
+        assert_eq!((down(1e-50), up(-1e-50)), (0.0, -0.0));
+        assert_eq!(up(1e-50), f32::from_bits(1));
+        assert_eq!(down(-1e-50), -f32::from_bits(1));
+        // Beyond f32's range: the infinity on the safe side.
+        assert_eq!((down(1e39), up(1e39)), (f32::MAX, f32::INFINITY));
+        assert_eq!((down(-1e39), up(-1e39)), (f32::NEG_INFINITY, -f32::MAX));
+        assert_eq!(next_down(f32::INFINITY), f32::MAX);
+        assert_eq!(next_down(f32::NEG_INFINITY), f32::NEG_INFINITY);
+        assert!(next_down(f32::NAN).is_nan());
     }
 }

@@ -102,10 +102,42 @@ trait Visit {
     fn instance(&mut self, scene: &Scene<'_>, i: u32) -> bool;
 }
 
+/// The instances a ray has traced lately: an instance's box lies in
+/// several leaves, and its first visit traced the whole ray (over `[tmin,
+/// best t]`, not the cell), so a later visit can only find the same hit
+/// or none (the interval has only shrunk) and is skipped. Eight entries,
+/// replaced in turn; an instance that dropped out is traced again, which
+/// costs time, never an answer.
+#[derive(Default)]
+struct Mailbox {
+    ids: [u32; MAILBOX],
+    len: usize,
+}
+
+/// Entries in a [`Mailbox`].
+const MAILBOX: usize = 8;
+
+impl Mailbox {
+    /// Was `i` traced lately? If not, it is noted as traced now.
+    #[inline(always)]
+    fn seen(&mut self, i: u32) -> bool {
+        let filled = self.ids.get(..self.len.min(MAILBOX)).unwrap_or(&[]);
+        if filled.contains(&i) {
+            return true;
+        }
+        if let Some(slot) = self.ids.get_mut(self.len % MAILBOX) {
+            *slot = i;
+        }
+        self.len = self.len.wrapping_add(1);
+        false
+    }
+}
+
 struct ClosestVisit<'r> {
     ray: &'r Ray,
     mask: u32,
     best: SceneHit,
+    traced: Mailbox,
 }
 
 impl Visit for ClosestVisit<'_> {
@@ -117,7 +149,7 @@ impl Visit for ClosestVisit<'_> {
     #[inline(always)]
     fn instance(&mut self, scene: &Scene<'_>, i: u32) -> bool {
         // The best instance met again (it lies in several leaves) cannot win.
-        if i == self.best.instance {
+        if i == self.best.instance || self.traced.seen(i) {
             return false;
         }
         let Some((inst, mesh)) = scene.selected(i, self.mask) else {
@@ -133,6 +165,7 @@ impl Visit for ClosestVisit<'_> {
 struct AnyVisit<'r> {
     ray: &'r Ray,
     mask: u32,
+    traced: Mailbox,
 }
 
 impl Visit for AnyVisit<'_> {
@@ -143,9 +176,10 @@ impl Visit for AnyVisit<'_> {
 
     #[inline(always)]
     fn instance(&mut self, scene: &Scene<'_>, i: u32) -> bool {
-        scene
-            .selected(i, self.mask)
-            .is_some_and(|(inst, mesh)| mesh.any_hit(&inst.local_ray(self.ray)))
+        !self.traced.seen(i)
+            && scene
+                .selected(i, self.mask)
+                .is_some_and(|(inst, mesh)| mesh.any_hit(&inst.local_ray(self.ray)))
     }
 }
 
@@ -179,6 +213,7 @@ impl<'a> Scene<'a> {
             ray,
             mask,
             best: SceneHit::MISS,
+            traced: Mailbox::default(),
         };
         self.walk(ray, &mut visit);
         visit.best
@@ -191,7 +226,14 @@ impl<'a> Scene<'a> {
     /// Never.
     #[must_use]
     pub fn any_hit(&self, ray: &Ray, mask: u32) -> bool {
-        self.walk(ray, &mut AnyVisit { ray, mask })
+        self.walk(
+            ray,
+            &mut AnyVisit {
+                ray,
+                mask,
+                traced: Mailbox::default(),
+            },
+        )
     }
 
     /// [`Scene::closest_hit`] for each active lane of a packet of 4, 8 or
@@ -222,7 +264,7 @@ impl<'a> Scene<'a> {
         let Some(sr) = ShearedRay::new(ray) else {
             return false;
         };
-        let Some(cr) = CellRay::new(ray, &sr, &self.bounds) else {
+        let Some(cr) = CellRay::new(ray, sr.k[2], &self.bounds) else {
             return false;
         };
         let s2 = cr.slack + cr.slack;

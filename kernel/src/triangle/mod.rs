@@ -169,7 +169,7 @@ impl TriangleHit {
 
 /// The index of the largest `|dir|` component; ties go to the lower axis.
 #[inline]
-fn dominant_axis(dir: &[f32; 3]) -> usize {
+pub(crate) fn dominant_axis(dir: &[f32; 3]) -> usize {
     let a = [dir[0].abs(), dir[1].abs(), dir[2].abs()];
     if a[0] >= a[1] && a[0] >= a[2] {
         0

@@ -17,7 +17,6 @@
 use crate::blob::Node;
 use crate::geometry::{Bounds, Ray};
 use crate::lanes::Span;
-use crate::triangle::ShearedRay;
 
 /// The cell slack relative to the ray's extent through the scene
 /// (2^-18 ≈ 3.8e-6, about 32 ulps of the largest `t` in the scene).
@@ -77,11 +76,14 @@ pub(crate) struct CellRay {
 
 impl CellRay {
     /// Clips `ray` to `bounds` widened to the root cell (slab test),
-    /// widening the interval by the slack.
+    /// widening the interval by the slack, which scales with the ray's
+    /// extent along its dominant axis `kz` ([`ShearedRay`]'s `k[2]`).
     /// `None` when the ray misses the box or is invalid.
+    ///
+    /// [`ShearedRay`]: crate::triangle::ShearedRay
     #[inline(always)]
     #[must_use]
-    pub(crate) fn new(ray: &Ray, sr: &ShearedRay, bounds: &Bounds) -> Option<CellRay> {
+    pub(crate) fn new(ray: &Ray, kz: usize, bounds: &Bounds) -> Option<CellRay> {
         let org = ray.origin;
         let bounds = &root_cell(bounds, &org);
         // Whole arrays, not element stores in the loop: those were spilled
@@ -138,7 +140,7 @@ impl CellRay {
         };
         // Slack from the ray's extent through the scene along its dominant
         // axis, which bounds every t the scene's triangles can produce.
-        let kz = sr.k[2];
+        let kz = kz.min(2);
         let zmax = (bounds.min[kz] - org[kz])
             .abs()
             .max((bounds.max[kz] - org[kz]).abs())

@@ -172,7 +172,7 @@ const LINE_NODES: usize = 8;
 #[inline(always)]
 fn start(tree: &TriangleTree<'_>, ray: &Ray, w: &mut Walk) -> Option<(ShearedRay, CellRay)> {
     let sr = ShearedRay::new(ray)?;
-    let cr = CellRay::new(ray, &sr, &tree.bounds)?;
+    let cr = CellRay::new(ray, sr.k[2], &tree.bounds)?;
     let (lo, hi) = cr.start();
     let node = *tree.nodes.first()?;
     (w.node, w.lo, w.hi, w.sp, w.armed) = (node, lo, hi, 0, false);

@@ -43,7 +43,7 @@ use super::{LeafPrims, TriangleTree};
 use crate::blob::{Node, MAX_DEPTH};
 use crate::geometry::{Hit, Ray, MISS};
 use crate::lanes::Span;
-use crate::triangle::{Closest, ShearedRay, Triangle};
+use crate::triangle::{dominant_axis, Closest, ShearedRay, Triangle};
 use core::mem::MaybeUninit;
 
 /// A far child waiting on the stack with its interval.
@@ -204,10 +204,12 @@ impl<'a> TriangleTree<'a> {
         ray: &Ray,
         tally: &mut T,
     ) -> Hit {
-        let Some(sr) = ShearedRay::new(ray) else {
+        // The root clip first: a ray that misses the tree's box (most
+        // instances a scene's ray meets) skips the shear's divisions.
+        let Some(cr) = CellRay::new(ray, dominant_axis(&ray.dir), &self.bounds) else {
             return Hit::MISS;
         };
-        let Some(cr) = CellRay::new(ray, &sr, &self.bounds) else {
+        let Some(sr) = ShearedRay::new(ray) else {
             return Hit::MISS;
         };
         let mut best = Closest::new(ray.tmax);
@@ -279,8 +281,11 @@ impl<'a> TriangleTree<'a> {
         ray: &Ray,
         tally: &mut T,
     ) -> bool {
-        ShearedRay::new(ray)
-            .is_some_and(|sr| self.any_sheared::<T, DEPTH>(ray, &sr, tally).is_some())
+        // The root clip first, as in `closest_hit_tallied`.
+        CellRay::new(ray, dominant_axis(&ray.dir), &self.bounds).is_some_and(|cr| {
+            ShearedRay::new(ray)
+                .is_some_and(|sr| self.any_clipped::<T, DEPTH>(ray, &sr, &cr, tally).is_some())
+        })
     }
 
     /// The occluder of `ray` (prepared as `sr`) the walk from the root
@@ -292,9 +297,21 @@ impl<'a> TriangleTree<'a> {
         sr: &ShearedRay,
         tally: &mut T,
     ) -> Option<u32> {
-        let cr = CellRay::new(ray, sr, &self.bounds)?;
+        let cr = CellRay::new(ray, sr.k[2], &self.bounds)?;
+        self.any_clipped::<T, DEPTH>(ray, sr, &cr, tally)
+    }
+
+    /// [`TriangleTree::any_sheared`] with the root clip `cr` made.
+    #[inline(always)]
+    fn any_clipped<T: Tally, const DEPTH: usize>(
+        &self,
+        ray: &Ray,
+        sr: &ShearedRay,
+        cr: &CellRay,
+        tally: &mut T,
+    ) -> Option<u32> {
         let (lo, hi) = cr.start();
-        self.any_from::<T, DEPTH>(sr, &cr, (ray.tmin, ray.tmax), (0, lo, hi), tally)
+        self.any_from::<T, DEPTH>(sr, cr, (ray.tmin, ray.tmax), (0, lo, hi), tally)
     }
 
     /// The any-hit search of one ray over `[tmin, tmax]` through the

@@ -268,7 +268,7 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
             let Some(sr) = ShearedRay::new(&ray) else {
                 continue;
             };
-            let Some(cr) = CellRay::new(&ray, &sr, bounds) else {
+            let Some(cr) = CellRay::new(&ray, sr.k[2], bounds) else {
                 continue;
             };
             active |= 1 << l;

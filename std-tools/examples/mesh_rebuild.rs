@@ -3,7 +3,8 @@
 //! builds, the blob written each time (the tree an engine traces):
 //! `taskset -c 0 target/release/examples/mesh_rebuild MESH.obj [REPS] [BUILDER...]`.
 //! Prints each builder's best time, nodes, references per triangle and SAH
-//! cost (the default cost model, as `kdray info` prints it).
+//! cost (the default cost model, as `kdray info` prints it). `MAX_DEPTH=N`
+//! in the environment caps the trees' depth (`BuildParams::max_depth`).
 
 use kdray_tools::blob::write_triangle_tree;
 use kdray_tools::builders::{build, BuildParams, BuilderKind, CostModel};
@@ -28,6 +29,7 @@ fn main() {
     let tris = kdray_tools::mesh::load(std::path::Path::new(path)).expect("the mesh loads");
     let params = BuildParams {
         threads: Some(1),
+        max_depth: std::env::var("MAX_DEPTH").ok().and_then(|d| d.parse().ok()),
         ..BuildParams::default()
     };
     // One pool for every build: starting threads is not the builder's cost.

@@ -350,7 +350,7 @@ impl Track {
         // Every box sent down at once, cell by cell, as the fast builder
         // partitions: a cell's boxes are `ids[start..end]` in index order,
         // its children's lists are appended past them (above, then below),
-        // and a list popped from `todo` frees everything past its end (the
+        // and a cell popped from `cells` frees everything past its end (the
         // cells still waiting were listed before it). So each leaf's boxes
         // come in index order, and the leaves in the order a depth-first
         // walk meets them, below before above, as a build lays out its

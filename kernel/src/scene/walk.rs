@@ -350,3 +350,24 @@ fn visit_leaf<V: Visit>(scene: &Scene<'_>, node: Node, visit: &mut V) -> bool {
         .unwrap_or(&[]);
     run.iter().any(|&i| visit.instance(scene, i))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_mailbox_remembers_the_last_eight_instances() {
+        let mut m = Mailbox::default();
+        // Nothing seen yet, instance 0 included (the empty slots hold 0).
+        assert!(!m.seen(0));
+        assert!(m.seen(0));
+        for i in 1..8 {
+            assert!(!m.seen(i), "{i} is new");
+        }
+        assert!((0..8).all(|i| m.seen(i)), "all eight remembered");
+        // A ninth replaces the oldest, 0, which is then traced again.
+        assert!(!m.seen(8));
+        assert!(!m.seen(0));
+        assert!(m.seen(8) && m.seen(7));
+    }
+}

@@ -144,21 +144,18 @@ fn tree_vs_brute_sah_hits_sliver_snapped_onto_the_origin_plane() {
     ));
 }
 
-/// Found by `tree_vs_brute` in a soak run, and **open**: triangle 5 runs
-/// from z = 6.25 to z = 2.1e9, and its `f32` edge test passes a ray at
-/// z = 2.4, 3.8 units beyond the short end (the vertices' own `f32` step
-/// at 2.1e9 is 128). The box clamp's margin on each face is `2^-18 (|lo|
-/// + |hi| + |o|)`, 8,192 units here, so brute force takes the hit at t =
-/// 0.18; the fast builder lists the triangle only in cells overlapping its
-/// box, which the ray meets behind its origin, and the tree misses. A
-/// margin of each face's own magnitude fixes this one and breaks
+/// Found by `tree_vs_brute` in a soak run: triangle 5 runs from z = 6.25
+/// to z = 2.1e9, and its `f32` edge test passes a ray at z = 2.4, 3.8
+/// units beyond the short end (the vertices' own `f32` step at 2.1e9 is
+/// 128). The box clamp's margin on each face is `2^-18 (|lo| + |hi| +
+/// |o|)`, 8,192 units here, so brute force takes the hit at t = 0.18; the
+/// fast builder listed the triangle only in cells overlapping its box,
+/// which the ray meets behind its origin, and the tree missed. It now
+/// lists each triangle by `Triangle::hit_bounds`. (Tried: a margin of
+/// each face's own magnitude, which fixed this input and broke
 /// `tree_vs_brute_subnormal_direction_origin_on_box_face` and
-/// `scene_blob_subnormal_extent_slack_loses_lower_triangle` (and the
-/// `sure` window's proof, which assumes the wide margin); the fix is the
-/// builders listing each triangle in the cells its widened box overlaps.
-/// `cargo test --test fuzz_regressions -- --ignored` runs it.
+/// `scene_blob_subnormal_extent_slack_loses_lower_triangle`.)
 #[test]
-#[ignore = "open: a hit beyond a huge sliver's short end, in a cell that does not list it"]
 fn tree_vs_brute_fast_misses_hit_beyond_the_short_end_of_a_huge_sliver() {
     checks::tree_vs_brute(include_bytes!(
         "../fuzz/regressions/tree_vs_brute/fast_misses_hit_beyond_the_short_end_of_a_huge_sliver"

@@ -93,6 +93,26 @@ impl Triangle {
         }
     }
 
+    /// The box every hit the triangle test accepts lies in, for a ray
+    /// from the origin: [`Triangle::bounds`] with each face moved out by
+    /// `2^-18 (|lo| + |hi|)` of its axis (the test's margin for rounding,
+    /// which on a huge sliver reaches far past its short end), rounded
+    /// outwards. A ray from `o` may hit up to `2^-18 |o|` further out. A
+    /// builder that lists a triangle in every cell this box overlaps lets
+    /// the walk find every hit brute force takes, wherever the `f32` edge
+    /// test passes by rounding.
+    #[must_use]
+    pub fn hit_bounds(&self) -> Bounds {
+        let b = self.bounds();
+        let mut out = b;
+        for a in 0..3 {
+            let (lo, hi) = widen(f64::from(b.min[a]), f64::from(b.max[a]), 0.0);
+            out.min[a] = (lo as f32).next_down();
+            out.max[a] = (hi as f32).next_up();
+        }
+        out
+    }
+
     /// Are all nine coordinates finite?
     #[inline]
     #[must_use]

@@ -97,10 +97,11 @@ impl Triangle {
     /// from the origin: [`Triangle::bounds`] with each face moved out by
     /// `2^-18 (|lo| + |hi|)` of its axis (the test's margin for rounding,
     /// which on a huge sliver reaches far past its short end), rounded
-    /// outwards. A ray from `o` may hit up to `2^-18 |o|` further out. A
-    /// builder that lists a triangle in every cell this box overlaps lets
-    /// the walk find every hit brute force takes, wherever the `f32` edge
-    /// test passes by rounding.
+    /// outwards. A ray from `o` may hit up to `2^-18 |o|` further out,
+    /// which no fixed box holds. A builder that lists a triangle in every
+    /// cell this box overlaps lets the walk find the hits brute force
+    /// takes where the `f32` edge test passes by rounding far from the
+    /// triangle (a huge sliver's short end: `tests/fuzz_regressions.rs`).
     #[must_use]
     pub fn hit_bounds(&self) -> Bounds {
         let b = self.bounds();

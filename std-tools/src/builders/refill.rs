@@ -355,7 +355,8 @@ impl Track {
         // come in index order, and the leaves in the order a depth-first
         // walk meets them, below before above, as a build lays out its
         // runs. (Tried: a descent per box from the root, then a counting
-        // sort of (leaf, box) pairs: 3-7 ms for 10,000 instances, each
+        // sort of (leaf, box) pairs: 7 ms for 10,000 instances against 3
+        // ms here (`scene_move`, its first frame), each
         // descent waiting on node loads the partition streams through.)
         let mut ids: Vec<u32> = (0u32..)
             .zip(boxes)

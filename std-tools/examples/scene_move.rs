@@ -14,6 +14,10 @@ use kdray_tools::instances::{
 };
 use std::time::Instant;
 
+#[path = "support/stat.rs"]
+mod stat;
+use stat::Stat;
+
 fn main() {
     let arg = |i: usize| std::env::args().nth(i).and_then(|a| a.parse::<f64>().ok());
     let n = arg(1).map_or(10_000, |x| x as usize);
@@ -27,7 +31,8 @@ fn main() {
     let bounds = mesh_bounds(&meshes).expect("the generated meshes build");
     // The rebuilds and the kept tree's updates run in two passes over the
     // same frames, so neither finds the caches as the other left them.
-    let (mut boxes_t, mut build_t, mut update_t) = (Stat::new(), Stat::new(), Stat::new());
+    let (mut boxes_t, mut build_t, mut update_t) =
+        (Stat::default(), Stat::default(), Stat::default());
     let frame_boxes = |f: u32| world_boxes(&bounds, &moved_level(&instances, f, speed, 2));
     let mut fresh = None;
     for f in 1..=frames {
@@ -73,31 +78,4 @@ fn listed(t: &kdray_tools::builders::BuiltTree) -> u32 {
             kdray_kernel::NodeKind::Interior { .. } => 0,
         })
         .sum()
-}
-
-/// Best, mean and worst of a series of times.
-struct Stat(Vec<f64>);
-
-impl Stat {
-    fn new() -> Stat {
-        Stat(Vec::new())
-    }
-    fn add(&mut self, t: f64) {
-        self.0.push(t);
-    }
-}
-
-impl std::fmt::Display for Stat {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let best = self.0.iter().copied().fold(f64::INFINITY, f64::min);
-        let worst = self.0.iter().copied().fold(0.0, f64::max);
-        let mean = self.0.iter().sum::<f64>() / self.0.len().max(1) as f64;
-        write!(
-            f,
-            "{:.3}/{:.3}/{:.3} ms",
-            best * 1e3,
-            mean * 1e3,
-            worst * 1e3
-        )
-    }
 }

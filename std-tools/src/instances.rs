@@ -14,8 +14,10 @@
 //!    ([`build_top_level`], [`builders::fast`]), or keeps a [`TopLevel`]
 //!    and refills its planes ([`TopLevel::update`]; docs/results.md
 //!    `## Scenes` has both times for 10,000 instances);
-//! 3. rebuilds the tree of each deforming mesh with
-//!    [`BuilderKind::Fast`] (and writes its blob; its bounds change too);
+//! 3. updates the tree of each deforming mesh
+//!    ([`crate::deforming::DeformingMesh::update`]: its planes kept, its
+//!    moved triangles listed again, rebuilt with [`BuilderKind::Fast`]
+//!    when drifted) and takes its view (its bounds change too);
 //! 4. assembles the scene from the trees, the instances and the new top
 //!    level ([`Scene::from_parts`], which validates them; no copy).
 //!
@@ -160,11 +162,8 @@ pub fn build_top_level_with(boxes: &[Bounds], p: &TopParams) -> BuiltTree {
 /// [`TopParams::drift`] times its cost as built.
 #[derive(Clone, Debug)]
 pub struct TopLevel {
-    /// The tree and its weights.
-    refill: builders::refill::Refill,
+    kept: builders::kept::Kept,
     params: TopParams,
-    /// The SAH cost and root area when last built.
-    built: (f64, f64),
 }
 
 impl TopLevel {
@@ -172,13 +171,9 @@ impl TopLevel {
     #[must_use]
     pub fn new(boxes: &[Bounds], params: &TopParams) -> TopLevel {
         let tree = build_top_level_with(boxes, params);
-        let area = tree.bounds.area();
-        let refill = builders::refill::Refill::new(tree, &params.cost);
-        let built = (refill.cost(), area);
         TopLevel {
-            refill,
+            kept: builders::kept::Kept::new(tree, &params.cost, params.drift),
             params: *params,
-            built,
         }
     }
 
@@ -187,22 +182,18 @@ impl TopLevel {
     /// when their cost or the bounds' area drifted past
     /// [`TopParams::drift`] (or no box is left). Returns whether it rebuilt.
     pub fn update(&mut self, boxes: &[Bounds]) -> bool {
-        let drift = self.params.drift;
-        let (cost, area) = self.built;
-        match self.refill.refill(boxes) {
-            Some(c) if c <= drift * cost && self.tree().bounds.area() <= drift * area => false,
-            _ => {
-                *self = TopLevel::new(boxes, &self.params);
-                true
-            }
+        if self.kept.refill(boxes) {
+            return false;
         }
+        *self = TopLevel::new(boxes, &self.params);
+        true
     }
 
     /// The tree (nodes in the kernel's treelet layout; `prims` with room
     /// after each leaf's run, [`builders::refill::Refill::tree`]).
     #[must_use]
     pub fn tree(&self) -> &BuiltTree {
-        self.refill.tree()
+        self.kept.tree()
     }
 }
 

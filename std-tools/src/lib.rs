@@ -15,6 +15,7 @@
 pub mod blob;
 pub mod builders;
 pub mod camera;
+pub mod deforming;
 pub mod instances;
 pub mod io;
 pub mod mesh;

@@ -3,7 +3,9 @@
 mod axis;
 mod bounds;
 mod ray;
+mod ulp;
 
 pub use axis::Axis;
 pub use bounds::Bounds;
 pub use ray::{ray_is_valid, Hit, Ray, MISS, OCCLUDED};
+pub(crate) use ulp::{next_down, next_up};

@@ -59,7 +59,7 @@ pub use brute::{any_hit_brute, closest_hit_brute};
 pub(crate) use closest::Closest;
 pub use spawn::SurfacePoint;
 
-use crate::geometry::{ray_is_valid, Bounds, Hit, Ray};
+use crate::geometry::{next_down, next_up, ray_is_valid, Bounds, Hit, Ray};
 use crate::lanes::{dispatch, Job, Lanes, Level, Real};
 use bytemuck::{Pod, Zeroable};
 
@@ -108,8 +108,8 @@ impl Triangle {
         let mut out = b;
         for a in 0..3 {
             let (lo, hi) = widen(f64::from(b.min[a]), f64::from(b.max[a]), 0.0);
-            out.min[a] = (lo as f32).next_down();
-            out.max[a] = (hi as f32).next_up();
+            out.min[a] = next_down(lo as f32);
+            out.max[a] = next_up(hi as f32);
         }
         out
     }

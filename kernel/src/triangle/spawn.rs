@@ -19,7 +19,7 @@
 //! spawned ray over `[0, tmax]` never hits the triangle it leaves.
 
 use super::{noise_bound, normal_magnitudes, Triangle};
-use crate::geometry::{Hit, Ray};
+use crate::geometry::{next_down, next_up, Hit, Ray};
 
 /// `γ7 = 7u / (1 - 7u)` for `f32` (`u = 2^-24`): the bound on seven
 /// roundings, PBRT's `gamma(7)`.
@@ -140,35 +140,9 @@ fn plane_of(tri: &Triangle, p: &[f32; 3]) -> ([f32; 3], f32) {
     (unit.to_array(), snap as f32)
 }
 
-/// The next `f32` above `x` (`x` for `+inf` and NaN).
-fn next_up(x: f32) -> f32 {
-    if x.is_nan() || x == f32::INFINITY {
-        return x;
-    }
-    let x = if x == 0.0 { 0.0 } else { x }; // -0 steps like +0
-    let b = x.to_bits();
-    f32::from_bits(if x >= 0.0 { b + 1 } else { b - 1 })
-}
-
-/// The next `f32` below `x`.
-fn next_down(x: f32) -> f32 {
-    -next_up(-x)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn next_float_steps_one_ulp_across_zero() {
-        assert_eq!(next_up(1.0), 1.0 + f32::EPSILON);
-        assert_eq!(next_down(1.0), 1.0 - f32::EPSILON / 2.0);
-        assert_eq!(next_up(0.0), f32::from_bits(1));
-        assert_eq!(next_up(-0.0), f32::from_bits(1));
-        assert_eq!(next_down(0.0), -f32::from_bits(1));
-        assert_eq!(next_up(-f32::from_bits(1)), -0.0);
-        assert_eq!(next_up(f32::MAX), f32::INFINITY);
-    }
 
     #[test]
     fn offset_moves_to_the_side_of_the_direction() {

@@ -26,6 +26,7 @@ mod cost;
 mod events;
 pub mod fast;
 mod item;
+pub mod kept;
 pub mod layout;
 mod median;
 mod monitor;
@@ -274,6 +275,28 @@ pub fn build_monitored(
     params: &BuildParams,
     monitor: &BuildMonitor,
 ) -> Result<BuiltTree, BuildError> {
+    check_triangles(triangles)?;
+    // No thread count: build on the caller's rayon pool (the global one,
+    // or whichever the caller installed), so repeated builds start no
+    // threads. A count: a pool of that size for this build.
+    let Some(threads) = params.threads else {
+        return Ok(build_in_pool(triangles, kind, params, monitor));
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| BuildError::Threads {
+            message: e.to_string(),
+        })?;
+    Ok(pool.install(|| build_in_pool(triangles, kind, params, monitor)))
+}
+
+/// The mesh checks every builder makes: finite triangles within
+/// [`kdray_kernel::MAX_COORD`], few enough for the node's index field.
+///
+/// # Errors
+/// The first [`BuildError`] found.
+pub(crate) fn check_triangles(triangles: &[Triangle]) -> Result<(), BuildError> {
     if let Some(triangle) = triangles.iter().position(|t| !t.is_finite()) {
         return Err(BuildError::NonFinite { triangle });
     }
@@ -294,19 +317,7 @@ pub fn build_monitored(
             count: triangles.len(),
         });
     }
-    // No thread count: build on the caller's rayon pool (the global one,
-    // or whichever the caller installed), so repeated builds start no
-    // threads. A count: a pool of that size for this build.
-    let Some(threads) = params.threads else {
-        return Ok(build_in_pool(triangles, kind, params, monitor));
-    };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| BuildError::Threads {
-            message: e.to_string(),
-        })?;
-    Ok(pool.install(|| build_in_pool(triangles, kind, params, monitor)))
+    Ok(())
 }
 
 /// Each triangle's [`Triangle::hit_bounds`]: the builders that list
@@ -315,7 +326,7 @@ pub fn build_monitored(
 /// takes, including a sliver's past its short end, where its `f32` edge
 /// test passes by rounding. The margin is `2^-18` of the coordinates:
 /// planes rarely fall inside it.
-fn hit_boxes(triangles: &[Triangle]) -> Vec<Bounds> {
+pub(crate) fn hit_boxes(triangles: &[Triangle]) -> Vec<Bounds> {
     triangles.iter().map(Triangle::hit_bounds).collect()
 }
 

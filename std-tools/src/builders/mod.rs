@@ -297,6 +297,17 @@ pub fn build_monitored(
 /// # Errors
 /// The first [`BuildError`] found.
 pub(crate) fn check_triangles(triangles: &[Triangle]) -> Result<(), BuildError> {
+    // One pass without a branch per coordinate (a NaN fails the compare,
+    // so in range is finite too); the error's details only on failure.
+    let in_range = |t: &Triangle| {
+        t.v.iter()
+            .flatten()
+            .fold(true, |ok, c| ok & (c.abs() <= kdray_kernel::MAX_COORD))
+    };
+    let all_in_range = triangles.iter().fold(true, |ok, t| ok & in_range(t));
+    if triangles.len() <= kdray_kernel::node::MAX_NODE_FIELD as usize && all_in_range {
+        return Ok(());
+    }
     if let Some(triangle) = triangles.iter().position(|t| !t.is_finite()) {
         return Err(BuildError::NonFinite { triangle });
     }

@@ -9,6 +9,7 @@ use kdray::tools::builders::{BuildError, BuildParams};
 use kdray::tools::deforming::DeformingMesh;
 use kdray::tools::instances::{sphere, torus};
 use kdray::tools::rng::Rng;
+use proptest::prelude::*;
 
 /// `rest` under a wave along x travelling up y, of `amplitude` at `frame`.
 fn waved(rest: &[Triangle], frame: u32, amplitude: f32) -> Vec<Triangle> {
@@ -94,6 +95,50 @@ fn a_frame_with_a_bad_triangle_is_refused_and_the_tree_kept() {
         tree.closest_hit(&ray).bits(),
         closest_hit_brute(&rest, &ray).bits()
     );
-    // Another mesh's triangles (fewer) are refused by the view, not traced.
+    // Another count of triangles is refused by the view, not traced.
     assert!(mesh.view(&rest[..10]).is_err());
+    let more = [rest.as_slice(), &rest[..1]].concat();
+    assert!(mesh.view(&more).is_err());
+}
+
+/// A random triangle soup within `[-1, 1]^3`: small, large, slivers.
+fn soup() -> impl Strategy<Value = Vec<Triangle>> {
+    let c = -1.0f32..1.0;
+    let v = [c.clone(), c.clone(), c];
+    let tri = (v.clone(), v.clone(), v, 0.0f32..1.0).prop_map(|(a, b, c, s)| {
+        // Shrink towards the first vertex: from the whole box to a speck.
+        let s = s * s;
+        let p = |w: [f32; 3]| core::array::from_fn(|i| a[i] + (w[i] - a[i]) * s);
+        Triangle { v: [a, p(b), p(c)] }
+    });
+    prop::collection::vec(tri, 0..80)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(128))]
+
+    /// Every triangle moving on its own, frame after frame: each frame's
+    /// tree answers as brute force over that frame's triangles.
+    #[test]
+    fn random_motions_match_brute_force(rest in soup(), speed in 0.0f32..0.2, seed in 0u64..1000) {
+        let mut mesh = DeformingMesh::new(&rest, &BuildParams::default(), DeformingMesh::DRIFT).unwrap();
+        let mut r = Rng::new(seed);
+        let mut tris = rest;
+        for f in 0..6 {
+            for t in &mut tris {
+                let d = [r.range(-speed, speed), r.range(-speed, speed), r.range(-speed, speed)];
+                for p in &mut t.v {
+                    for a in 0..3 {
+                        p[a] += d[a] + r.range(-0.1, 0.1) * speed;
+                    }
+                }
+            }
+            mesh.update(&tris).unwrap();
+            let tree = mesh.view(&tris).unwrap();
+            for ray in rays(&mut r, 60) {
+                prop_assert_eq!(tree.closest_hit(&ray).bits(), closest_hit_brute(&tris, &ray).bits(), "frame {}: {:?}", f, ray);
+                prop_assert_eq!(tree.any_hit(&ray), any_hit_brute(&tris, &ray), "frame {}: {:?}", f, ray);
+            }
+        }
+    }
 }

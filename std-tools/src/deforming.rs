@@ -115,8 +115,16 @@ impl DeformingMesh {
     ///
     /// # Errors
     /// [`BlobError`] when `triangles` are not the ones the tree was last
-    /// filled with (a triangle outside its bounds, an index past the end).
+    /// filled with: another count ([`BlobError::SectionMismatch`]), a
+    /// triangle outside its bounds.
     pub fn view<'a>(&'a self, triangles: &'a [Triangle]) -> Result<TriangleTree<'a>, BlobError> {
+        if triangles.len() != self.count {
+            return Err(BlobError::SectionMismatch {
+                what: "triangles",
+                expected: u32::try_from(self.count).unwrap_or(u32::MAX),
+                found: u32::try_from(triangles.len()).unwrap_or(u32::MAX),
+            });
+        }
         let t = self.tree();
         TriangleTree::from_parts(&t.nodes, &t.prims, triangles, t.bounds)
     }

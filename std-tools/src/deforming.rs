@@ -46,7 +46,7 @@ pub struct DeformingMesh {
     kept: Kept,
     params: BuildParams,
     drift: f64,
-    /// The triangles the tree was built or last refilled over.
+    /// How many triangles the tree was built or last refilled over.
     count: usize,
     /// This frame's boxes (scratch kept for the next frame).
     boxes: Vec<Bounds>,

@@ -166,6 +166,10 @@ impl<const D: usize, S: Scalar> PointTreeN<'_, D, S> {
             if nearest > acc.bound() {
                 continue;
             }
+            // Tried for k = 1: one offer of the chunk's first point at
+            // `nearest` (a compare mask and its lowest bit) instead of a
+            // branch per point: 0.72-0.75x kiddo against 0.81x at 2-D and
+            // 3-D (uniform, interleaved): the branches predict well.
             for (&d2, &i) in d.iter().zip(ids) {
                 if d2 <= acc.bound() {
                     acc.offer(d2, i);

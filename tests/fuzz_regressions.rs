@@ -29,6 +29,7 @@ fn seed_corpora_replay() {
     assert!(replay_dir("fuzz/corpus/tree_vs_brute", checks::tree_vs_brute) >= 3);
     assert!(replay_dir("fuzz/corpus/scene_blob", checks::scene_blob) >= 2);
     assert!(replay_dir("fuzz/corpus/point_blob", checks::point_blob) >= 3);
+    assert!(replay_dir("fuzz/corpus/deforming", checks::deforming) >= 3);
 }
 
 /// The raw-blob seeds of the `blob` target carry the whole-blob checksum

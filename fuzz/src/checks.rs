@@ -12,6 +12,8 @@
 //!   answers are its brute force's.
 //! - [`tree_vs_brute`]: the same scenes with every builder: the tree's
 //!   closest hit is the brute-force one bit for bit, any hit agrees.
+//! - [`deforming`]: the same scenes moved over a few frames, a kept
+//!   deforming mesh's tree against brute force each frame.
 
 use kdray::kernel::wire::{blob_checksum, Header, ENDIAN_CHECK, KIND_TRIANGLES, MAGIC, VERSION};
 use kdray::kernel::{
@@ -326,6 +328,56 @@ pub fn tree_vs_brute(data: &[u8]) {
                 assert_eq!(got.bits(), want.bits(), "{kind:?} shallow: {ray:?}");
                 assert_eq!(shallow.any_hit(&ray), want_any, "{kind:?} shallow any");
             }
+        }
+    }
+}
+
+/// A deforming mesh's kept tree (`DeformingMesh`) answers as brute force
+/// over each frame's triangles, bitwise, whether the frame refilled the
+/// kept planes or rebuilt. Input: a scene, a frame count, then per frame a
+/// move for each triangle (none, a shift along an axis, a new vertex, a
+/// new coordinate) and four rays.
+pub fn deforming(data: &[u8]) {
+    use kdray::tools::deforming::DeformingMesh;
+    let mut r = Bytes::new(data);
+    let mut tris = r.scene();
+    let Ok(mut mesh) = DeformingMesh::new(&tris, &BuildParams::default(), DeformingMesh::DRIFT)
+    else {
+        return; // beyond the coordinate range: refused, as by the builders
+    };
+    for _ in 0..r.u8() % 4 + 1 {
+        for t in &mut tris {
+            let b = r.u8();
+            let (a, k) = (usize::from(b / 4 % 3), usize::from(b / 12 % 3));
+            match b % 4 {
+                0 => {}
+                1 => {
+                    let d = r.coord() / 16.0;
+                    for p in &mut t.v {
+                        p[a] += d;
+                    }
+                }
+                2 => t.v[k] = [r.coord(), r.coord(), r.coord()],
+                _ => t.v[k][a] = r.coord(),
+            }
+        }
+        if mesh.update(&tris).is_err() {
+            return; // a move out of range: refused, the tree kept
+        }
+        let tree = mesh.view(&tris).expect("the kept tree validates");
+        for _ in 0..4 {
+            let ray = r.ray();
+            let want = closest_hit_brute(&tris, &ray);
+            assert_eq!(
+                tree.closest_hit(&ray).bits(),
+                want.bits(),
+                "{ray:?} {tris:?}"
+            );
+            assert_eq!(
+                tree.any_hit(&ray),
+                any_hit_brute(&tris, &ray),
+                "any: {ray:?}"
+            );
         }
     }
 }

@@ -200,3 +200,19 @@ fn packet_vs_single_sure_window_underflows_to_zero_width() {
         "../fuzz/regressions/packet_vs_single/sure_window_underflows_to_zero_width"
     ));
 }
+
+/// Found by `scene_blob` in a CI run: in instance 0's space the ray runs
+/// down the sphere's axis through its pole, from y = 2e34 with a direction
+/// of (-2e-13, -2e38, 0). Its shear `dx / dy` underflows to 0, so the
+/// `f32` test sees it pass exactly through the pole vertex and takes
+/// every triangle of the fan at the same `t`, triangle 0 first; the walk
+/// sees it at x = -2e-17 and the SAH tree listed triangle 0 (x >= 0) only
+/// in cells with x >= 0, so it answered triangle 2. The clipping builders
+/// now list each triangle by its hit box and clip with the triangle
+/// test's margin, as `fast` does.
+#[test]
+fn scene_blob_ray_through_a_pole_loses_the_lower_triangle() {
+    checks::scene_blob(include_bytes!(
+        "../fuzz/regressions/scene_blob/ray_through_a_pole_loses_the_lower_triangle"
+    ));
+}

@@ -5,13 +5,15 @@
 //! sees only the box of what really lies in it: tighter boxes, fewer
 //! references, and triangles that only graze a child's box are dropped.
 //!
-//! The box must never lose a point of the triangle, or the tree would lose
-//! hits. So the clip is conservative: it runs in `f64` against the cell
-//! grown by a margin `eps` far above the `f64` rounding of the clip and far
-//! below an `f32` ulp of the scene's coordinates, the resulting box is grown
-//! by `eps` again, rounded outward to `f32` (next float toward -inf for the
-//! minimum, toward +inf for the maximum) and intersected with the cell.
-//! A triangle is dropped from a cell only when it misses the grown cell.
+//! The box must never lose a point where the triangle test may accept a
+//! hit, or the tree would lose hits. So the clip is conservative: it runs
+//! in `f64` against the cell grown by a margin `eps`, the larger of one far
+//! above the `f64` rounding of the clip and the triangle test's own margin
+//! (`hit_margin`: the `f32` test accepts a ray a rounding off the
+//! triangle), the resulting box is grown by `eps` again, rounded outward
+//! to `f32` (next float toward -inf for the minimum, toward +inf for the
+//! maximum) and intersected with the cell. A triangle is dropped from a
+//! cell only when it misses the grown cell.
 
 use kdray_kernel::Bounds;
 use kdray_kernel::Triangle;
@@ -149,6 +151,9 @@ pub(super) fn cut_triangle(
     // At least the smallest normal float: below it the rounding error is
     // absolute (2^-149 per operation), not relative.
     let eps = (scale * CUT_MARGIN).max(f32::MIN_POSITIVE);
+    // Vertices within the test's margin of the plane count on both sides,
+    // and each side's box grows by it.
+    let near = hit_margin(tri);
     let mut lo = [[f32::INFINITY; 3]; 2];
     let mut hi = [[f32::NEG_INFINITY; 3]; 2];
     let mut finite = true;
@@ -160,10 +165,10 @@ pub(super) fn cut_triangle(
             lo[side][k] = if l < lo[side][k] { l } else { lo[side][k] };
             hi[side][k] = if h > hi[side][k] { h } else { hi[side][k] };
         };
-        for (side, on) in [(0, a[axis] <= pos), (1, a[axis] >= pos)] {
+        for (side, on) in [(0, a[axis] <= pos + near), (1, a[axis] >= pos - near)] {
             if on {
                 for (k, &x) in a.iter().enumerate() {
-                    add(side, x, x, k);
+                    add(side, x - near, x + near, k);
                 }
             }
         }
@@ -221,7 +226,8 @@ pub(super) fn clipped_box(tri: &Triangle, cell: &Bounds) -> Option<Bounds> {
     bounds(&clip_to_cell(tri, cell, eps), cell, eps)
 }
 
-/// The clip margin for `tri` in `cell`.
+/// The clip margin for `tri` in `cell`: the clip's own rounding margin,
+/// or the triangle test's ([`hit_margin`]) when larger.
 fn margin(tri: &Triangle, cell: &Bounds) -> f64 {
     let scale = tri
         .v
@@ -230,8 +236,23 @@ fn margin(tri: &Triangle, cell: &Bounds) -> f64 {
         .chain(&cell.min)
         .chain(&cell.max)
         .fold(0.0f64, |m, &c| m.max(f64::from(c).abs()));
-    scale * MARGIN
+    (scale * MARGIN).max(f64::from(hit_margin(tri)))
 }
+
+/// How far from `tri` the triangle test may accept a hit: `2^-17` of its
+/// largest coordinate magnitude, at least the margin of
+/// [`Triangle::hit_bounds`] on every axis (`2^-18 (|lo| + |hi|)`). A ray
+/// whose shear rounds (a direction component below `f32`'s range beside
+/// the dominant one, an origin far away) passes the `f32` edge test a
+/// rounding away from the triangle, so each part is grown by this
+/// margin and a triangle within it of a cell is kept there.
+fn hit_margin(tri: &Triangle) -> f32 {
+    let scale = tri.v.iter().flatten().fold(0.0f32, |m, &c| m.max(c.abs()));
+    scale * HIT_MARGIN
+}
+
+/// [`hit_margin`]'s scale: `2^-17`.
+const HIT_MARGIN: f32 = 1.0 / 131_072.0;
 
 /// `tri` clipped to `cell` grown by `eps`.
 fn clip_to_cell(tri: &Triangle, cell: &Bounds, eps: f64) -> Polygon {

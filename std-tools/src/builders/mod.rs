@@ -331,12 +331,12 @@ pub(crate) fn check_triangles(triangles: &[Triangle]) -> Result<(), BuildError> 
     Ok(())
 }
 
-/// Each triangle's [`Triangle::hit_bounds`]: the builders that list
-/// triangles by box without clipping them (`fast`, `median`, `middle`)
-/// list them by these, so that the walk finds every hit brute force
-/// takes, including a sliver's past its short end, where its `f32` edge
-/// test passes by rounding. The margin is `2^-18` of the coordinates:
-/// planes rarely fall inside it.
+/// Each triangle's [`Triangle::hit_bounds`]: every builder lists
+/// triangles by these (the clipping ones then clip with the same margin),
+/// so that the walk finds every hit brute force takes, including a
+/// sliver's past its short end, where its `f32` edge test passes by
+/// rounding. The margin is `2^-18` of the coordinates: planes rarely fall
+/// inside it.
 pub(crate) fn hit_boxes(triangles: &[Triangle]) -> Vec<Bounds> {
     triangles.iter().map(Triangle::hit_bounds).collect()
 }
@@ -388,7 +388,15 @@ fn build_in_pool(
                 cost,
                 sweep_max,
             };
-            let set = s.root(&boxes);
+            // Each triangle from the box its hits lie in (`hit_boxes`,
+            // within the root cell), then clipped with the triangle
+            // test's margin (`clip`), so a hit the `f32` test accepts a
+            // rounding off the triangle is in a cell that lists it.
+            let hit: Vec<Bounds> = hit_boxes(triangles)
+                .iter()
+                .map(|h| h.intersect(&bounds))
+                .collect();
+            let set = s.root(&hit);
             subdivide::subdivide(&s, set, bounds, &limits, monitor)
         }
         BuilderKind::Binned | BuilderKind::Median | BuilderKind::Middle => {
@@ -407,13 +415,9 @@ fn build_in_pool(
                 cost,
                 straddlers,
             };
-            // The baselines place planes without clipping: each triangle
-            // is listed by the box its hits lie in, as by `fast`.
-            let set = if straddlers.is_some() {
-                boxes::BoxSplitter::root(&boxes)
-            } else {
-                boxes::BoxSplitter::root(&hit_boxes(triangles))
-            };
+            // Each triangle is listed by the box its hits lie in, as by
+            // `fast` (the binned builder then cuts it at each plane).
+            let set = boxes::BoxSplitter::root(&hit_boxes(triangles));
             subdivide::subdivide(&s, set, bounds, &limits, monitor)
         }
     };

@@ -335,7 +335,7 @@ impl EventSah<'_> {
         if n >= PERFECT_MIN {
             split_boxes(tri, cell, axis, pos)
         } else {
-            cut_box(&tri.bounds().intersect(cell), cell, axis, pos)
+            cut_box(&tri.hit_bounds().intersect(cell), cell, axis, pos)
         }
     }
 

@@ -11,7 +11,7 @@
 //! the last frame with both trees (their rates; the hits must be equal).
 
 use kdray_kernel::glam::Vec3;
-use kdray_kernel::{Ray, Triangle, TriangleTree};
+use kdray_kernel::{Bounds, Ray, Triangle, TriangleTree};
 use kdray_tools::builders::{build, BuildParams, BuilderKind, CostModel};
 use kdray_tools::deforming::DeformingMesh;
 use kdray_tools::rng::Rng;
@@ -32,15 +32,7 @@ fn main() {
     let amplitude = arg(3).unwrap_or(0.01) as f32;
     let period = arg(4).unwrap_or(60.0) as f32;
     let rest = kdray_tools::mesh::load(std::path::Path::new(path)).expect("the mesh loads");
-    let (lo, hi) = rest.iter().flat_map(|t| t.v).fold(
-        ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
-        |(lo, hi), p| {
-            (
-                std::array::from_fn(|a| lo[a].min(p[a])),
-                std::array::from_fn(|a| hi[a].max(p[a])),
-            )
-        },
-    );
+    let Bounds { min: lo, max: hi } = rest.iter().fold(Bounds::EMPTY, |u, t| u.union(&t.bounds()));
     let extent = (0..3).fold(0.0f32, |m, a| m.max(hi[a] - lo[a]));
     // A wave along x travelling up y: one wavelength over the mesh's height.
     let frame = |f: u32| -> Vec<Triangle> {

@@ -45,7 +45,6 @@ use kdray_kernel::{BlobError, Bounds, Triangle, TriangleTree};
 pub struct DeformingMesh {
     kept: Kept,
     params: BuildParams,
-    drift: f64,
     /// How many triangles the tree was built or last refilled over.
     count: usize,
     /// This frame's boxes (scratch kept for the next frame).
@@ -73,7 +72,6 @@ impl DeformingMesh {
         Ok(DeformingMesh {
             kept: Kept::new(tree, &CostModel::from_params(params), drift),
             params: params.clone(),
-            drift,
             count: triangles.len(),
             boxes: Vec::new(),
         })
@@ -98,7 +96,7 @@ impl DeformingMesh {
         }
         let boxes = std::mem::take(&mut self.boxes);
         let params = self.params.clone();
-        *self = DeformingMesh::new(triangles, &params, self.drift)?;
+        *self = DeformingMesh::new(triangles, &params, self.kept.drift())?;
         self.boxes = boxes;
         Ok(true)
     }

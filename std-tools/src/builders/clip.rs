@@ -123,22 +123,16 @@ pub(super) fn split_boxes(
     )
 }
 
-/// The margin of [`cut_triangle`]'s crossing points, relative to the
-/// triangle's largest coordinate magnitude: 2^-18, 8 times the worst `f32`
-/// rounding of a crossing point (about 8 rounding errors of 2^-24 each).
-const CUT_MARGIN: f32 = 1.0 / 262_144.0;
-
 /// The boxes of the parts of `tri` in the two cells made by splitting
 /// `cell` at `pos` on `axis` (below, above), cheaply: the box of the part
 /// of the whole triangle on each side of the plane (its vertices there and
 /// where its edges cross the plane), intersected with `b`, the triangle's
 /// box in `cell`, and with the child cell. Looser than [`split_boxes`]
 /// (the triangle is not clipped to the cell first), as conservative: each
-/// holds every point of the triangle in its closed cell (`b` holds those
-/// in `cell`). It runs in `f32`: the crossing points are grown by
-/// [`CUT_MARGIN`] of the triangle's scale (vertices are exact); when a
-/// crossing overflows, the box `b` is cut instead ([`cut_box`]). `None`
-/// for an empty box.
+/// holds every point within [`hit_margin`] of the triangle in its closed
+/// cell (`b` holds those in `cell`). It runs in `f32`: vertices and
+/// crossing points are grown by that margin; when a crossing overflows,
+/// the box `b` is cut instead ([`cut_box`]). `None` for an empty box.
 #[must_use]
 pub(super) fn cut_triangle(
     tri: &Triangle,
@@ -147,13 +141,12 @@ pub(super) fn cut_triangle(
     axis: usize,
     pos: f32,
 ) -> (Option<Bounds>, Option<Bounds>) {
-    let scale = tri.v.iter().flatten().fold(0.0f32, |m, &c| m.max(c.abs()));
-    // At least the smallest normal float: below it the rounding error is
-    // absolute (2^-149 per operation), not relative.
-    let eps = (scale * CUT_MARGIN).max(f32::MIN_POSITIVE);
-    // Vertices within the test's margin of the plane count on both sides,
-    // and each side's box grows by it.
-    let near = hit_margin(tri);
+    // One margin for vertices and crossing points: the triangle test's
+    // (`2^-17` of the scale), far above a crossing point's `f32` rounding
+    // (about 8 errors of `2^-24`); at least the smallest normal float,
+    // below which rounding is absolute (`2^-149` an operation). Vertices
+    // within it of the plane count on both sides.
+    let eps = hit_margin(tri).max(f32::MIN_POSITIVE);
     let mut lo = [[f32::INFINITY; 3]; 2];
     let mut hi = [[f32::NEG_INFINITY; 3]; 2];
     let mut finite = true;
@@ -165,10 +158,10 @@ pub(super) fn cut_triangle(
             lo[side][k] = if l < lo[side][k] { l } else { lo[side][k] };
             hi[side][k] = if h > hi[side][k] { h } else { hi[side][k] };
         };
-        for (side, on) in [(0, a[axis] <= pos + near), (1, a[axis] >= pos - near)] {
+        for (side, on) in [(0, a[axis] <= pos + eps), (1, a[axis] >= pos - eps)] {
             if on {
                 for (k, &x) in a.iter().enumerate() {
-                    add(side, x - near, x + near, k);
+                    add(side, x - eps, x + eps, k);
                 }
             }
         }
@@ -373,6 +366,55 @@ mod tests {
             let b = clipped_box(&t, &c);
             assert_holds_points_in(b, &t, &c, 20);
         }
+    }
+
+    #[test]
+    fn parts_hold_points_within_the_hit_margin_of_the_triangle() {
+        let mut rng = Rng::new(17);
+        let mut r = || rng.range(-1.0, 1.0);
+        let mut held = 0;
+        for k in 0..3000 {
+            let mut t = tri(std::array::from_fn(|_| std::array::from_fn(|_| r())));
+            let c = cell([-1.0; 3], [1.0; 3]);
+            let axis = k % 3;
+            let pos = r() * 0.5;
+            if k % 2 == 0 {
+                // A vertex on the plane, the others above it (a fan's pole).
+                t.v[0][axis] = pos;
+                for v in &mut t.v[1..] {
+                    v[axis] = pos + v[axis].abs() + 0.01;
+                }
+            }
+            // The documented margin, `2^-17` of the largest coordinate.
+            let scale = t.v.iter().flatten().fold(0.0f32, |m, &c| m.max(c.abs()));
+            let m = scale / 131_072.0 * 0.9;
+            let halves = c.split(axis, pos);
+            let b = clipped_box(&t, &c).expect("inside the cell");
+            for (parts, name) in [
+                (split_boxes(&t, &c, axis, pos), "split_boxes"),
+                (cut_triangle(&t, &b, &c, axis, pos), "cut_triangle"),
+            ] {
+                // Each vertex moved out by the margin towards each corner:
+                // the points beyond the triangle's own box.
+                for (vi, corner) in (0..3).flat_map(|vi| (0..8).map(move |c| (vi, c))) {
+                    let p: [f32; 3] = std::array::from_fn(|a| {
+                        let sign = if corner >> a & 1 == 0 { -1.0 } else { 1.0 };
+                        t.v[vi][a] + m * sign
+                    });
+                    for (got, child) in [(parts.0, &halves.0), (parts.1, &halves.1)] {
+                        if (0..3).all(|a| child.min[a] <= p[a] && p[a] <= child.max[a]) {
+                            let g = got.unwrap_or_else(|| panic!("{name}: {p:?} lost, {t:?}"));
+                            assert!(
+                                (0..3).all(|a| g.min[a] <= p[a] && p[a] <= g.max[a]),
+                                "{name}: {p:?} outside {g:?}"
+                            );
+                            held += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(held > 50_000, "{held}");
     }
 
     #[test]

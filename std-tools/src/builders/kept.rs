@@ -46,6 +46,12 @@ impl Kept {
         }
     }
 
+    /// The drift factor past which a refill asks for a rebuild.
+    #[must_use]
+    pub fn drift(&self) -> f64 {
+        self.drift
+    }
+
     /// The tree as last refilled (or as built); its `prims` hold each
     /// leaf's run with room after it ([`Refill::tree`]).
     #[must_use]

@@ -348,15 +348,17 @@ fn build_in_pool(
     monitor: &BuildMonitor,
 ) -> BuiltTree {
     use rayon::prelude::*;
-    let boxes: Vec<Bounds> = triangles.par_iter().map(Triangle::bounds).collect();
+    // The root cell holds the triangles; every builder lists each one by
+    // the box its hits lie in (`hit_boxes`).
     let bounds = if triangles.is_empty() {
         Bounds::ZERO
     } else {
-        boxes
+        triangles
             .par_iter()
-            .copied()
+            .map(Triangle::bounds)
             .reduce(|| Bounds::EMPTY, |a, b| a.union(&b))
     };
+    let hit = hit_boxes(triangles);
     let extent = (0..3).fold(0.0f32, |m, a| m.max(bounds.max[a] - bounds.min[a]));
     let cost = CostModel::from_params(params);
     let limits = subdivide::Limits {
@@ -375,7 +377,7 @@ fn build_in_pool(
                 depth: limits.depth,
                 shrink_bins: true,
             };
-            return fast::build(&hit_boxes(triangles), bounds, &p);
+            return fast::build(&hit, bounds, &p);
         }
         BuilderKind::Sah | BuilderKind::Sweep => {
             let sweep_max = if kind == BuilderKind::Sah {
@@ -388,15 +390,11 @@ fn build_in_pool(
                 cost,
                 sweep_max,
             };
-            // Each triangle from the box its hits lie in (`hit_boxes`,
-            // within the root cell), then clipped with the triangle
-            // test's margin (`clip`), so a hit the `f32` test accepts a
-            // rounding off the triangle is in a cell that lists it.
-            let hit: Vec<Bounds> = hit_boxes(triangles)
-                .iter()
-                .map(|h| h.intersect(&bounds))
-                .collect();
-            let set = s.root(&hit);
+            // The hit boxes within the root cell, then clipped with the
+            // triangle test's margin (`clip`), so a hit the `f32` test
+            // accepts a rounding off the triangle is in a cell that lists it.
+            let within: Vec<Bounds> = hit.iter().map(|h| h.intersect(&bounds)).collect();
+            let set = s.root(&within);
             subdivide::subdivide(&s, set, bounds, &limits, monitor)
         }
         BuilderKind::Binned | BuilderKind::Median | BuilderKind::Middle => {
@@ -415,9 +413,8 @@ fn build_in_pool(
                 cost,
                 straddlers,
             };
-            // Each triangle is listed by the box its hits lie in, as by
-            // `fast` (the binned builder then cuts it at each plane).
-            let set = boxes::BoxSplitter::root(&hit_boxes(triangles));
+            // The binned builder then cuts each box at each plane.
+            let set = boxes::BoxSplitter::root(&hit);
             subdivide::subdivide(&s, set, bounds, &limits, monitor)
         }
     };

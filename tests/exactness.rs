@@ -238,3 +238,48 @@ fn ray_from_plane_of_flat_triangles_over_negative_t() {
     };
     assert_matches_brute(&tris, &[ray]);
 }
+
+/// The any-hit walk goes back to front: down a stack of 16 walls, the
+/// occluder it finds (and remembers) is one of the last walls before
+/// `tmax`, and it tests only their leaf (front to back it finds one of
+/// the first walls). Every wall it skips would have been an answer too,
+/// so the answer is brute force's either way.
+#[test]
+fn any_hit_walks_from_the_far_end() {
+    let tris: Vec<Triangle> = (0..16)
+        .flat_map(|k| {
+            let z = k as f32;
+            [
+                Triangle {
+                    v: [[0.0, 0.0, z], [4.0, 0.0, z], [4.0, 4.0, z]],
+                },
+                Triangle {
+                    v: [[0.0, 0.0, z], [4.0, 4.0, z], [0.0, 4.0, z]],
+                },
+            ]
+        })
+        .collect();
+    let built = build(&tris, BuilderKind::Sah, &BuildParams::default()).unwrap();
+    let blob = write_triangle_tree(&built, &tris).unwrap();
+    let tree = blob.tree().unwrap();
+    for (tmax, wall) in [(100.0, 15), (10.7, 10), (3.7, 3)] {
+        for dir in [[0.0, 0.0, 1.0], [0.01, 0.02, 1.0]] {
+            let ray = Ray {
+                origin: [1.0, 3.0, -0.5],
+                tmin: 0.0,
+                dir,
+                tmax,
+            };
+            let mut last = kdray::kernel::MISS;
+            assert!(tree.any_hit_remembering(&ray, &mut last));
+            // A leaf may hold two walls, tested in index order.
+            assert!(
+                (wall - 1..=wall).contains(&(last / 2)),
+                "tmax {tmax}, dir {dir:?}: triangle {last}"
+            );
+            let (hit, counts) = tree.any_hit_counted(&ray);
+            assert!(hit && any_hit_brute(&tris, &ray));
+            assert!(counts.triangles <= 4, "{counts:?}");
+        }
+    }
+}

@@ -100,6 +100,9 @@ trait Visit {
     fn bound(&self) -> f32;
     /// Traces instance `i`; `true` when the answer is known.
     fn instance(&mut self, scene: &Scene<'_>, i: u32) -> bool;
+    /// Far child first when both are visited (the mesh walk's
+    /// `Visit::FAR_FIRST`, `triangle_tree/walk.rs`).
+    const FAR_FIRST: bool = false;
 }
 
 /// The instances a ray has traced lately: an instance's box lies in
@@ -169,6 +172,9 @@ struct AnyVisit<'r> {
 }
 
 impl Visit for AnyVisit<'_> {
+    /// Back to front: a shadow ray leaves the instance it starts on last.
+    const FAR_FIRST: bool = true;
+
     #[inline(always)]
     fn bound(&self) -> f32 {
         self.ray.tmax
@@ -259,7 +265,7 @@ impl<'a> Scene<'a> {
     }
 
     /// The traversal loop: `visit` sees each non-empty leaf's instances in
-    /// front-to-back order of cells. `true` when `visit` stopped it.
+    /// front-to-back order of cells (back to front with `V::FAR_FIRST`). `true` when `visit` stopped it.
     fn walk<V: Visit>(&self, ray: &Ray, visit: &mut V) -> bool {
         let Some(sr) = ShearedRay::new(ray) else {
             return false;
@@ -289,7 +295,21 @@ impl<'a> Scene<'a> {
                 #[allow(clippy::neg_cmp_op_on_partial_ord)]
                 let (visit_near, visit_far) = (!(t_split < lo), !(t_split > hi));
                 let far_lo = lo.far_lo(t_split, s2);
-                if visit_near {
+                let both = visit_near && visit_far && !near.is_empty_leaf() && !far.is_empty_leaf();
+                if V::FAR_FIRST && both {
+                    // Back to front: the near child waits.
+                    let Some(slot) = stack.get_mut(sp) else {
+                        return false;
+                    };
+                    *slot = Pending {
+                        node: first as u32,
+                        lo,
+                        hi: hi.near_hi(t_split, s2),
+                    };
+                    sp += 1;
+                    node = far;
+                    lo = far_lo;
+                } else if visit_near {
                     if visit_far && !far.is_empty_leaf() {
                         // Advance to the near child, enqueue the far one.
                         let Some(slot) = stack.get_mut(sp) else {

@@ -106,7 +106,14 @@ impl<'a> TriangleTree<'a> {
                 let nibbles = cr.above_first_nibbles;
                 let step = (t_split, s2);
                 let stack = &mut w.stack;
-                match self.split_step(node, nibbles, step, (&mut lo, &mut hi), stack, &mut sp) {
+                match self.split_step(
+                    node,
+                    (nibbles, V::FAR_FIRST),
+                    step,
+                    (&mut lo, &mut hi),
+                    stack,
+                    &mut sp,
+                ) {
                     None => return Some(false),
                     Some(Some((n, at))) => {
                         node = n;

@@ -8,7 +8,9 @@
 //!     push (far child, t_split, t_max); continue with (near child, t_min, t_split)
 //! ```
 //!
-//! with one refinement: a child that is an empty cell is never entered nor
+//! with two refinements: the any-hit search takes the far child first and
+//! pushes the near one (`Visit::FAR_FIRST`: a shadow ray's occluder is
+//! found from the light's end), and a child that is an empty cell is never entered nor
 //! pushed (the parent reads both children, `TriangleTree::children`, and
 //! skips an empty one there), and the loop moves on to the next far cell
 //! when neither child holds anything for the ray.
@@ -72,6 +74,10 @@ pub(super) trait Visit<'a, T> {
     fn bound(&self) -> f32;
     /// Tests the leaf's triangles; `true` when the answer is known.
     fn leaf(&mut self, tris: &'a [Triangle], prims: LeafIter<'a>, tally: &mut T) -> bool;
+    /// When the ray visits both children, take the far one first (the
+    /// near child waits on the stack): any order finds every hit, so a
+    /// search that may stop at any hit chooses where to look first.
+    const FAR_FIRST: bool = false;
 }
 
 /// Whether leaves are tested in lanes: where `wide` has vector registers
@@ -125,6 +131,17 @@ pub(super) struct AnyVisit<'r> {
 }
 
 impl<'a, T: Tally> Visit<'a, T> for AnyVisit<'_> {
+    /// Back to front. A shadow ray starts on a surface, in small cells
+    /// crowded with its own triangle's neighbours, which it leaves without
+    /// hitting, and ends at a light in open space; its occluder, if any,
+    /// lies between. From the far end the walk crosses empty cells to the
+    /// occluder. Bunny shadow rays (`matrix.sh`'s, first 65,536): 52.7 ->
+    /// 37.9 nodes and 19.6 -> 11.3 triangles a ray, 1.45-1.65x the rays a
+    /// second on the bunny, sponza and teapot. (Ize & Hansen's RTSAH and
+    /// Nah & Manocha's SATO order by occlusion probability per node, which
+    /// would need a bit per node the 8-byte node does not have.)
+    const FAR_FIRST: bool = true;
+
     #[inline(always)]
     fn bound(&self) -> f32 {
         self.tmax
@@ -397,12 +414,14 @@ impl<'a> TriangleTree<'a> {
     /// them), over the interval `[lo, hi]`: the child to
     /// continue with and its index (the interval narrowed to it, the far
     /// child pushed when both are visited), `Some(None)` when neither
-    /// holds anything for the ray, `None` for an invalid blob.
+    /// holds anything for the ray, `None` for an invalid blob. With
+    /// `far_first` ([`Visit::FAR_FIRST`]) the far child is taken first when
+    /// both are visited.
     #[inline(always)]
     pub(super) fn split_step(
         &self,
         node: Node,
-        above_first: u64,
+        (above_first, far_first): (u64, bool),
         (t_split, s2): (f32, f32),
         (lo, hi): (&mut f32, &mut f32),
         stack: &mut [MaybeUninit<Pending>],
@@ -438,6 +457,17 @@ impl<'a> TriangleTree<'a> {
         // the same node, so they predict well. Tried conditional moves
         // (mask selects of node, lo, hi): 25-30% slower on bunny
         // camera rays, the same on random rays.
+        if far_first && visit_far && visit_near && !near.is_empty_leaf() {
+            // Back to front: the near child waits, over its interval.
+            slot.write(Pending {
+                node: (second ^ 1) as u32,
+                lo: *lo,
+                hi: hi.near_hi(t_split, s2),
+            });
+            *sp += 1;
+            *lo = far_lo;
+            return Some(Some((far, second)));
+        }
         if visit_near & !near.is_empty_leaf() {
             *sp += usize::from(visit_far);
             *hi = hi.near_hi(t_split, s2);
@@ -453,7 +483,8 @@ impl<'a> TriangleTree<'a> {
     }
 
     /// The traversal loop: `visit` sees each non-empty leaf's primitives,
-    /// in front-to-back order of cells. `true` when `visit` stopped it.
+    /// in front-to-back order of cells (back to front with
+    /// [`Visit::FAR_FIRST`]). `true` when `visit` stopped it.
     /// The stack holds `DEPTH` pending far cells, one per level: enough
     /// for a tree of that depth (a deeper, unchecked one ends the walk
     /// where a push finds no room).
@@ -496,8 +527,14 @@ impl<'a> TriangleTree<'a> {
                 let t_split = (node.split() - slab[axis]) * slab[axis + 4];
                 let nibbles = cr.above_first_nibbles;
                 let step = (t_split, s2);
-                match self.split_step(node, nibbles, step, (&mut lo, &mut hi), &mut stack, &mut sp)
-                {
+                match self.split_step(
+                    node,
+                    (nibbles, V::FAR_FIRST),
+                    step,
+                    (&mut lo, &mut hi),
+                    &mut stack,
+                    &mut sp,
+                ) {
                     None => return false,
                     Some(Some((next, _))) => {
                         node = next;

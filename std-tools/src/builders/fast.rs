@@ -27,6 +27,15 @@
 //! Straddling boxes are only duplicated (the triangle is not clipped):
 //! their bins are clamped to the cell's, which gives the bins of the box
 //! clipped to the cell, so the SAH sees the clipped boxes' counts.
+//!
+//! Tried: a Morton builder (middle splits on a grid fixed up front, each
+//! box sorted once by the common prefix of its corner cells' codes, only
+//! the boxes straddling a plane carried down and partitioned): bunny
+//! 24.1 ms against 20.0 ms here, SAH cost 62.9 against 40.2; top level
+//! of 10,001 instances 1.6 ms at SAH cost 336 against 127. Slower on
+//! meshes because nearly every box straddles some plane of the last
+//! levels (1.2 M carried copies on the bunny, most at depths 15-21), and
+//! middle splits close in on the geometry a level at a time.
 
 use super::cost::CostModel;
 use super::BuiltTree;

@@ -108,6 +108,9 @@ trait Visit<'a, V> {
     fn leaf(&mut self, prims: LeafIter<'a>, lanes: u32) -> Option<(V, u32)>;
     /// The state `leaf` returns, with no new leaf tested.
     fn state(&self) -> Option<(V, u32)>;
+    /// Take the far child first when the packet visits both (the single
+    /// ray's [`super::super::walk::Visit::FAR_FIRST`]).
+    const FAR_FIRST: bool = false;
 }
 
 /// The closest-hit search: each lane's [`Closest`] kept in lanes (the
@@ -207,6 +210,9 @@ struct AnyLanes<'t, 'a, V, const N: usize> {
 }
 
 impl<'a, V: Lanes<N>, const N: usize> Visit<'a, V> for AnyLanes<'_, 'a, V, N> {
+    // Back to front, as the single ray's any hit.
+    const FAR_FIRST: bool = true;
+
     #[inline(always)]
     fn state(&self) -> Option<(V, u32)> {
         let alive = self.lr.active & !self.occluded;
@@ -296,11 +302,11 @@ impl<'a> TriangleTree<'a> {
 
     /// The packet loop of a coherent packet: `visit` tests leaves.
     #[inline(always)]
-    fn walk_lanes<V: Lanes<N>, const N: usize>(
+    fn walk_lanes<V: Lanes<N>, Vis: Visit<'a, V>, const N: usize>(
         &self,
         lr: &LaneRays<V, N>,
         LaneStack(stack): &mut LaneStack<V>,
-        visit: &mut impl Visit<'a, V>,
+        visit: &mut Vis,
     ) {
         let s2 = lr.s2;
         let mut sp = 0usize;
@@ -354,6 +360,17 @@ impl<'a> TriangleTree<'a> {
                         continue;
                     }
                     visit.state()
+                } else if Vis::FAR_FIRST && far != 0 {
+                    // Both visited, back to front: the near child waits.
+                    *slot = Pending {
+                        node: (second ^ 1) as u32,
+                        lanes: near,
+                        lo,
+                        hi: hi.near_hi(t_split, s2),
+                    };
+                    sp += 1;
+                    (node, lanes, lo) = (far_node, far, far_lo);
+                    continue;
                 } else {
                     sp += usize::from(far != 0);
                     (node, lanes, hi) = (near_node, near, hi.near_hi(t_split, s2));

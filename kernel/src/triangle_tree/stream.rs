@@ -1,6 +1,7 @@
 //! Several single rays walked in turns: the slice entry points' one-ray
-//! path for rays that share no cells (shadow rays from random surface
-//! points, random rays).
+//! closest-hit path for rays that share no cells (random rays, bounces).
+//! Any hit walks back to front instead, which needs no turns (the
+//! `AnyHit` query in `packet/mod.rs`).
 //!
 //! Such a ray's walk waits on memory: each step's child pair and each
 //! leaf's triangles are a cache miss more often than not, and the next
@@ -12,10 +13,10 @@
 //! independent rays changes.
 
 use super::cell_ray::CellRay;
-use super::walk::{AnyVisit, ClosestVisit, LeafIter, Pending, Visit};
+use super::walk::{ClosestVisit, LeafIter, Pending, Visit};
 use super::TriangleTree;
 use crate::blob::{Node, MAX_DEPTH};
-use crate::geometry::{Hit, Ray, MISS};
+use crate::geometry::{Hit, Ray};
 use crate::lanes::Span;
 use crate::triangle::{Closest, ShearedRay};
 use core::mem::MaybeUninit;
@@ -224,31 +225,6 @@ trait Query: Sized {
     fn answer(&mut self, stopped: bool, sr: &ShearedRay, tree: &TriangleTree) -> Self::Out;
 }
 
-/// Any hit over `[tmin, tmax]`.
-struct Any(f32, f32);
-
-impl Query for Any {
-    type Out = bool;
-    const MISS: bool = false;
-    #[inline(always)]
-    fn new(ray: &Ray) -> Any {
-        Any(ray.tmin, ray.tmax)
-    }
-    #[inline(always)]
-    fn visit<'r, 'a>(&'r mut self, sr: &'r ShearedRay) -> impl Visit<'a, ()> + 'r {
-        AnyVisit {
-            sr,
-            tmin: self.0,
-            tmax: self.1,
-            occluder: MISS,
-        }
-    }
-    #[inline(always)]
-    fn answer(&mut self, stopped: bool, _: &ShearedRay, _: &TriangleTree) -> bool {
-        stopped
-    }
-}
-
 /// The closest hit from `tmin`.
 struct Nearest(f32, Closest);
 
@@ -274,12 +250,6 @@ impl Query for Nearest {
 }
 
 impl TriangleTree<'_> {
-    /// `occluded[i] = any_hit(&rays[i])` for the first
-    /// `min(rays.len(), occluded.len())` rays, [`STREAM`] walks in turns.
-    pub(crate) fn any_hits_stream(&self, rays: &[Ray], occluded: &mut [bool]) {
-        self.in_turns::<Any>(rays, occluded);
-    }
-
     /// `hits[i] = closest_hit(&rays[i])` for the first
     /// `min(rays.len(), hits.len())` rays, [`STREAM`] walks in turns.
     pub(crate) fn closest_hits_stream(&self, rays: &[Ray], hits: &mut [Hit]) {

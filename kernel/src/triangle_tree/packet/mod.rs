@@ -359,10 +359,10 @@ impl<'a> TriangleTree<'a> {
         // rays walked in turns (`stream.rs`). Blocks hold whole packets of
         // every width, so the others are packed as the slice is.
         let mut memo = Q::Memo::default();
-        let turns = IN_TURNS && self.data_bytes() > TURNS_MIN_BYTES;
+        let turns = Q::STREAM.filter(|_| IN_TURNS && self.data_bytes() > TURNS_MIN_BYTES);
         for (rays, out) in rays.chunks(BLOCK).zip(out.chunks_mut(BLOCK)) {
-            if turns && scattered(rays, &self.bounds) {
-                Q::stream(self, rays, out);
+            if let Some(stream) = turns.filter(|_| scattered(rays, &self.bounds)) {
+                stream(self, rays, out);
                 continue;
             }
             match width {
@@ -405,11 +405,10 @@ const IN_TURNS: bool = cfg!(target_arch = "x86_64");
 /// scattered rays one at a time: 1 MiB, the L2 cache of the x86-64 cores
 /// measured. A tree that stays in cache has no misses for turns to
 /// overlap, only their hand-over to pay: the teapot (455 KB) ran random
-/// rays at 0.71x and shadow rays at 0.65x in turns, where the bunny
-/// (4.7 MB) ran both at 1.45x (one core, interleaved, plain build).
-/// Sponza (23 MB) still loses on random rays (0.85x; shadow rays 1.0x):
-/// its random rays end after few steps, in the top of the tree, which
-/// stays cached. Under `cfg(fuzzing)` every tree qualifies, so the fuzz
+/// rays at 0.71x in turns, where the bunny (4.7 MB) ran them at 1.08-1.45x
+/// (one core, interleaved, plain build). Sponza (23 MB) still loses on
+/// random rays (0.85-0.89x): they end after few steps, in the top of the
+/// tree, which stays cached. Under `cfg(fuzzing)` every tree qualifies, so the fuzz
 /// targets' small trees reach the walk in turns.
 const TURNS_MIN_BYTES: usize = if cfg!(fuzzing) { 0 } else { 1 << 20 };
 
@@ -418,8 +417,8 @@ const TURNS_MIN_BYTES: usize = if cfg!(fuzzing) { 0 } else { 1 << 20 };
 /// over the first two rays of every eight (every pair cost camera rays 2%).
 /// Camera rays (one origin) and shadow rays in pixel or Morton order are
 /// not; random rays and shadow rays from random surface points are, and
-/// their walks wait on memory, which rays walked in turns overlap (bunny,
-/// one core: shadow rays ~1.3x, random rays ~1.35x). Camera rays in turns
+/// closest-hit walks of such rays wait on memory, which rays walked in
+/// turns overlap (bunny, one core: random rays ~1.1-1.35x). Camera rays in turns
 /// ran 2.8x slower and Morton-ordered shadow rays 2.3x (a turn costs
 /// ~80 instructions and the interleaved branches predict worse), hence
 /// the test.
@@ -507,14 +506,18 @@ trait SliceQuery {
     fn one_after(tree: &TriangleTree<'_>, ray: &Ray, _: &mut Self::Memo) -> Self::Out {
         Self::one(tree, ray)
     }
-    /// Each ray's answer, single rays walked in turns (`stream.rs`).
-    fn stream(tree: &TriangleTree<'_>, rays: &[Ray], out: &mut [Self::Out]);
+    /// Each ray's answer, single rays walked in turns (`stream.rs`), for
+    /// a query whose scattered rays take turns.
+    const STREAM: Option<Stream<Self::Out>>;
     fn lanes<V: Lanes<N>, const N: usize>(
         tree: &TriangleTree<'_>,
         lr: &LaneRays<V, N>,
         stack: &mut LaneStack<V>,
     ) -> [Self::Out; N];
 }
+
+/// A slice of rays walked in turns, answers into the second slice.
+type Stream<Out> = fn(&TriangleTree<'_>, &[Ray], &mut [Out]);
 
 /// The closest hit.
 struct ClosestHit;
@@ -526,10 +529,7 @@ impl SliceQuery for ClosestHit {
     fn one(tree: &TriangleTree<'_>, ray: &Ray) -> Hit {
         tree.closest_hit(ray)
     }
-    #[inline(always)]
-    fn stream(tree: &TriangleTree<'_>, rays: &[Ray], out: &mut [Hit]) {
-        tree.closest_hits_stream(rays, out);
-    }
+    const STREAM: Option<Stream<Hit>> = Some(|tree, rays, out| tree.closest_hits_stream(rays, out));
     #[inline(always)]
     fn lanes<V: Lanes<N>, const N: usize>(
         tree: &TriangleTree<'_>,
@@ -569,10 +569,13 @@ impl SliceQuery for AnyHit {
     fn one_after(tree: &TriangleTree<'_>, ray: &Ray, memo: &mut Occluder) -> bool {
         tree.any_hit_remembering(ray, &mut memo.0)
     }
-    #[inline(always)]
-    fn stream(tree: &TriangleTree<'_>, rays: &[Ray], out: &mut [bool]) {
-        tree.any_hits_stream(rays, out);
-    }
+    /// No turns: walked back to front (`walk.rs`, `Visit::FAR_FIRST`),
+    /// shadow rays start from the light's end, which every ray of a light
+    /// shares and the cache keeps. Turns against none, plain build, one
+    /// core, file-order shadow rays, two runs: bunny 0.94-1.10x single,
+    /// 0.94-1.0x 8-wide (the noise), sponza 0.66-0.68x / 0.53-0.61x
+    /// (front to back, turns had paid 1.46x on the bunny, 1.0x on sponza).
+    const STREAM: Option<Stream<bool>> = None;
     #[inline(always)]
     fn lanes<V: Lanes<N>, const N: usize>(
         tree: &TriangleTree<'_>,

@@ -332,18 +332,11 @@ fn rays_in_turns_equal_single_rays_bitwise() {
     );
     let mut hits = [Hit::OCCLUDED; 301];
     tree.closest_hits_stream(&rays, &mut hits);
-    let mut occ = [false; 300];
-    tree.any_hits_stream(&rays, &mut occ);
-    let mut hit = 0;
     for (i, r) in rays.iter().enumerate() {
         assert_eq!(hits[i].bits(), tree.closest_hit(r).bits(), "ray {i}: {r:?}");
-        if let Some(&o) = occ.get(i) {
-            assert_eq!(o, tree.any_hit(r), "ray {i}: {r:?}");
-            hit += usize::from(o);
-        }
     }
     let closest = hits.iter().filter(|h| h.is_hit()).count();
-    assert!(hit > 0 && closest > 0, "only {hit} / {closest} rays hit");
+    assert!(closest > 0, "no ray hit");
     // One origin: not scattered.
     let fan = rays.map(|r| Ray {
         origin: [0.5; 3],

@@ -4,12 +4,19 @@
 //! flattened tree) and DIR/flat.obj (the flattened triangles). With
 //! `LEAF_SIZE EXTRA_DEPTH BINS` after them it writes only DIR/scene.kdt,
 //! its top level built with those [`TopParams`] (to weigh a faster
-//! rebuild against the rays' rate).
+//! rebuild against the rays' rate). With `moved FRAMES SPEED [DRIFT]`
+//! after them it moves the instances for FRAMES frames
+//! ([`moved_level`]) and writes DIR/kept.kdt, whose top level was kept
+//! and updated every frame ([`TopLevel::update`], rebuilt past DRIFT,
+//! default [`TopParams::DEFAULT`]'s), and DIR/moved.kdt, the same
+//! instances under a top level built afresh: the rays a kept top level
+//! costs, and the same answers.
 
 use kdray_tools::blob::write_triangle_tree;
 use kdray_tools::builders::{build, BuildParams, BuilderKind};
 use kdray_tools::instances::{
-    build_scene, build_top_level_with, flatten_scene, generated_level, world_boxes, TopParams,
+    build_scene, build_top_level_with, flatten_scene, generated_level, moved_level, world_boxes,
+    SceneParts, TopLevel, TopParams,
 };
 use std::path::PathBuf;
 
@@ -24,6 +31,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         BuilderKind::default(),
         &BuildParams::default(),
     )?;
+    if std::env::args().nth(3).as_deref() == Some("moved") {
+        let arg = |i: usize| std::env::args().nth(i).and_then(|a| a.parse::<f64>().ok());
+        let frames = arg(4).map_or(100, |f| f as u32);
+        let speed = arg(5).unwrap_or(0.02) as f32;
+        let drift = arg(6).unwrap_or(TopParams::DEFAULT.drift);
+        return write_moved(parts, &dir, frames, speed, drift);
+    }
     let top: Vec<usize> = (3..6)
         .filter_map(|i| std::env::args().nth(i)?.parse().ok())
         .collect();
@@ -56,5 +70,35 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         scene.as_bytes().len(),
         std::fs::metadata(dir.join("flat.kdt"))?.len()
     );
+    Ok(())
+}
+
+/// The `moved` mode: `parts`' instances moved for `frames` frames, under
+/// the kept top level (DIR/kept.kdt) and under a fresh one (DIR/moved.kdt).
+fn write_moved(
+    mut parts: SceneParts,
+    dir: &std::path::Path,
+    frames: u32,
+    speed: f32,
+    drift: f64,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let bounds: Vec<_> = parts.trees()?.iter().map(|t| t.bounds()).collect();
+    let start = parts.instances.clone();
+    let p = TopParams {
+        drift,
+        ..TopParams::DEFAULT
+    };
+    let mut kept = TopLevel::new(&world_boxes(&bounds, &start), &p);
+    let mut rebuilds = 0;
+    for f in 1..=frames {
+        rebuilds +=
+            u32::from(kept.update(&world_boxes(&bounds, &moved_level(&start, f, speed, 2))));
+    }
+    parts.instances = moved_level(&start, frames, speed, 2);
+    parts.top = kept.tree().clone();
+    std::fs::write(dir.join("kept.kdt"), parts.write()?.as_bytes())?;
+    parts.top = build_top_level_with(&world_boxes(&bounds, &parts.instances), &p);
+    std::fs::write(dir.join("moved.kdt"), parts.write()?.as_bytes())?;
+    println!("{frames} frames of {speed} per frame, drift {drift}: {rebuilds} rebuilds; kept.kdt, moved.kdt");
     Ok(())
 }

@@ -456,7 +456,9 @@ impl<'a> TriangleTree<'a> {
         // Branches, not selects: coherent rays take the same side at
         // the same node, so they predict well. Tried conditional moves
         // (mask selects of node, lo, hi): 25-30% slower on bunny
-        // camera rays, the same on random rays.
+        // camera rays, the same on random rays. Tried prefetching the
+        // waiting child's pair (or leaf) when both are visited: random
+        // rays 0.87x (bunny) and 0.92x (sponza), shadow rays 0.99-1.03x.
         if far_first && visit_far && visit_near && !near.is_empty_leaf() {
             // Back to front: the near child waits, over its interval.
             slot.write(Pending {

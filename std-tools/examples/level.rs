@@ -88,16 +88,17 @@ fn write_moved(
         drift,
         ..TopParams::DEFAULT
     };
-    let mut kept = TopLevel::new(&world_boxes(&bounds, &start), &p);
+    let mut boxes = world_boxes(&bounds, &start);
+    let mut kept = TopLevel::new(&boxes, &p);
     let mut rebuilds = 0;
     for f in 1..=frames {
-        rebuilds +=
-            u32::from(kept.update(&world_boxes(&bounds, &moved_level(&start, f, speed, 2))));
+        parts.instances = moved_level(&start, f, speed, 2);
+        boxes = world_boxes(&bounds, &parts.instances);
+        rebuilds += u32::from(kept.update(&boxes));
     }
-    parts.instances = moved_level(&start, frames, speed, 2);
     parts.top = kept.tree().clone();
     std::fs::write(dir.join("kept.kdt"), parts.write()?.as_bytes())?;
-    parts.top = build_top_level_with(&world_boxes(&bounds, &parts.instances), &p);
+    parts.top = build_top_level_with(&boxes, &p);
     std::fs::write(dir.join("moved.kdt"), parts.write()?.as_bytes())?;
     println!("{frames} frames of {speed} per frame, drift {drift}: {rebuilds} rebuilds; kept.kdt, moved.kdt");
     Ok(())

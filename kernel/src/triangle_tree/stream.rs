@@ -210,59 +210,36 @@ impl Slots {
     }
 }
 
-/// A query walked in turns: what a slot holds besides its walk.
-trait Query: Sized {
-    /// One ray's answer.
-    type Out;
-    /// The answer for a ray that never starts (invalid, or missing the box).
-    const MISS: Self::Out;
-    /// The query of `ray`.
-    fn new(ray: &Ray) -> Self;
-    /// The leaf search of `sr` (`walk.rs`'s visitors).
-    fn visit<'r, 'a>(&'r mut self, sr: &'r ShearedRay) -> impl Visit<'a, ()> + 'r;
-    /// The answer once the walk of `sr` through `tree` ended (`stopped`
-    /// as `walk` returns it).
-    fn answer(&mut self, stopped: bool, sr: &ShearedRay, tree: &TriangleTree) -> Self::Out;
-}
-
-/// The closest hit from `tmin`.
+/// The closest-hit search a slot holds besides its walk: `tmin` and the
+/// best hit so far.
 struct Nearest(f32, Closest);
 
-impl Query for Nearest {
-    type Out = Hit;
-    const MISS: Hit = Hit::MISS;
+impl Nearest {
     #[inline(always)]
     fn new(ray: &Ray) -> Nearest {
         Nearest(ray.tmin, Closest::new(ray.tmax))
     }
+
+    /// The leaf search of `sr` (`walk.rs`'s visitor).
     #[inline(always)]
-    fn visit<'r, 'a>(&'r mut self, sr: &'r ShearedRay) -> impl Visit<'a, ()> + 'r {
+    fn visit<'r>(&'r mut self, sr: &'r ShearedRay) -> ClosestVisit<'r> {
         ClosestVisit {
             sr,
             tmin: self.0,
             best: &mut self.1,
         }
     }
-    #[inline(always)]
-    fn answer(&mut self, _: bool, sr: &ShearedRay, tree: &TriangleTree) -> Hit {
-        self.1.hit(sr, tree.triangles)
-    }
 }
 
 impl TriangleTree<'_> {
     /// `hits[i] = closest_hit(&rays[i])` for the first
-    /// `min(rays.len(), hits.len())` rays, [`STREAM`] walks in turns.
+    /// `min(rays.len(), hits.len())` rays, [`STREAM`] walks in turns: a
+    /// slot whose walk ends takes the next ray.
     pub(crate) fn closest_hits_stream(&self, rays: &[Ray], hits: &mut [Hit]) {
-        self.in_turns::<Nearest>(rays, hits);
-    }
-
-    /// `Q`'s answers for `rays` into `out`, [`STREAM`] walks in turns:
-    /// a slot whose walk ends takes the next ray.
-    #[inline(always)]
-    fn in_turns<Q: Query>(&self, rays: &[Ray], out: &mut [Q::Out]) {
-        let n = rays.len().min(out.len());
+        let n = rays.len().min(hits.len());
         let mut slots = Slots::new();
-        let mut rs: [Option<(ShearedRay, CellRay, Q)>; STREAM] = core::array::from_fn(|_| None);
+        let mut rs: [Option<(ShearedRay, CellRay, Nearest)>; STREAM] =
+            core::array::from_fn(|_| None);
         let mut next = 0usize;
         let mut live = 0usize;
         loop {
@@ -274,23 +251,22 @@ impl TriangleTree<'_> {
                 while slot.is_none() && next < n {
                     let Some(ray) = rays.get(next) else { break };
                     if let Some((sr, cr)) = start(self, ray, w) {
-                        let mut q = Q::new(ray);
-                        w.cutoff = q.visit(&sr).bound().cutoff(cr.slack + cr.slack);
+                        let mut q = Nearest::new(ray);
+                        w.cutoff = Visit::<()>::bound(&q.visit(&sr)).cutoff(cr.slack + cr.slack);
                         *slot = Some((sr, cr, q));
                         *at = next;
                         live += 1;
-                    } else if let Some(o) = out.get_mut(next) {
-                        *o = Q::MISS;
+                    } else if let Some(h) = hits.get_mut(next) {
+                        *h = Hit::MISS;
                     }
                     next += 1;
                 }
                 let Some((sr, cr, q)) = slot else {
                     continue;
                 };
-                let ended = self.turn(cr, w, &mut q.visit(sr));
-                if let Some(stopped) = ended {
-                    if let Some(o) = out.get_mut(*at) {
-                        *o = q.answer(stopped, sr, self);
+                if self.turn(cr, w, &mut q.visit(sr)).is_some() {
+                    if let Some(h) = hits.get_mut(*at) {
+                        *h = q.1.hit(sr, self.triangles);
                     }
                     *slot = None;
                     live -= 1;

@@ -337,6 +337,10 @@ fn rays_in_turns_equal_single_rays_bitwise() {
     }
     let closest = hits.iter().filter(|h| h.is_hit()).count();
     assert!(closest > 0, "no ray hit");
+    // Fewer answers than rays: the first `hits.len()` rays are answered.
+    let mut fewer = [Hit::OCCLUDED; 300];
+    tree.closest_hits_stream(&rays, &mut fewer);
+    assert!(fewer.iter().zip(&hits).all(|(a, b)| a.bits() == b.bits()));
     // One origin: not scattered.
     let fan = rays.map(|r| Ray {
         origin: [0.5; 3],

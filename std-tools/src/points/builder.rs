@@ -160,7 +160,18 @@ pub fn build_points<const D: usize, S: Scalar>(
         leaf_size: params.leaf_size.clamp(1, MAX_POINT_FIELD as usize),
         ..params.clone()
     };
-    let tree = grow_parallel(&mut items, 0, 0, &params);
+    // The partitions move the points between `items` and a spare copy.
+    let mut spare = items.clone();
+    let tree = grow_parallel(
+        Run {
+            now: &mut items,
+            spare: &mut spare,
+            now_is_final: true,
+        },
+        0,
+        0,
+        &params,
+    );
     Ok(BuiltPoints {
         coords: leaf_major(&tree.nodes, &items),
         nodes: tree.nodes,
@@ -249,38 +260,144 @@ fn split_axis<const D: usize, S: Scalar>(
 /// every subtree at distance 0 worth a visit) prunes the above side by the
 /// plane's gap. Measured on the `dupes` anchor set (one core): k = 1
 /// 0.8-0.9M -> 1.3-2.0M queries/s; no change on uniform points.
-fn partition<const D: usize, S: Scalar>(items: &mut [Item<D, S>], a: usize) -> (usize, S) {
-    let mid = items.len() / 2;
+///
+/// Which points go below depends only on their coordinates and indices,
+/// never on the order the subtree holds them in: all those at or below
+/// the median, or, when the median is the largest coordinate, those below
+/// it and then the ties of lowest index up to `mid`.
+///
+/// Large points (over [`KEY_SELECT_MIN_BYTES`] with their index) are
+/// not moved by the selection: the median is selected among a copy of
+/// the coordinates (`keys`, the caller's scratch), then one pass writes
+/// each point to its side in the run's spare buffer, where the children's
+/// points then are. No point moves twice, and no branch depends on the
+/// side, a coin toss around a median. Against selecting the points
+/// themselves (`select_nth_unstable`, which moves each several times),
+/// one thread pinned, best of 7 `kdray build-points`: 1M points at 2-D
+/// 100 -> 106 ms and 3-D 73 -> 81 ms (so small points keep that), 300k
+/// at 8-D 48 -> 29 ms and 16-D 58 -> 46 ms. Tried: Hoare's two cursors
+/// swapping in place (8-D 18% fewer instructions, slower on the clock:
+/// its loops mispredicted); a radix selection on integer keys of the
+/// coordinates (a byte histogram per pass, no compares: 1.33x the
+/// instructions at 3-D, its filter passes cost more than the compares
+/// they save); (coordinate, position) pairs selected and the points
+/// gathered by position (12% more instructions at 16-D: the gather reads
+/// out of order); a `u32` index array selected with ties broken by index
+/// (1.2-1.5x the build time, the extra compare mispredicted); the item
+/// aligned to 16 bytes (the same time).
+fn partition<const D: usize, S: Scalar>(
+    run: &mut Run<'_, D, S>,
+    a: usize,
+    keys: &mut Vec<S>,
+) -> (usize, S) {
+    let mid = run.now.len() / 2;
     // The points are finite, so `<` orders them (-0 and +0 as equals,
-    // which the tie rule below puts on one side): 93M -> 78M instructions
+    // which the rule above puts on one side): 93M -> 78M instructions
     // for a 100k-point 3-D build against `total_cmp`'s bit twiddling.
-    // Tried selecting (coordinate, position) pairs and moving each point
-    // once: 12% more instructions at D = 16. Tried ties broken by index
-    // (so that a `u32` index array, selected for items over 32 bytes,
-    // builds the same tree): 1.2-1.5x the build time at D = 2 to 16, the
-    // extra compare mispredicted or, branch-free, 15-25% more
-    // instructions. Tried the item aligned to 16 bytes: 2-D builds 14%
-    // fewer instructions, the same time.
-    items.select_nth_unstable_by(mid, |x, y| {
-        x.p[a]
-            .partial_cmp(&y.p[a])
-            .unwrap_or(std::cmp::Ordering::Equal)
-    });
-    let split = items[mid].p[a];
-    // Move the ties after the median to the front of the above part.
-    let above = &mut items[mid + 1..];
-    let mut ties = 0;
-    for j in 0..above.len() {
-        if above[j].p[a] == split {
-            above.swap(ties, j);
-            ties += 1;
+    let order = |x: &S, y: &S| x.partial_cmp(y).unwrap_or(std::cmp::Ordering::Equal);
+    let (split, at_or_below) = if size_of::<Item<D, S>>() > KEY_SELECT_MIN_BYTES {
+        keys.clear();
+        keys.extend(run.now.iter().map(|it| it.p[a]));
+        let split = *keys.select_nth_unstable_by(mid, order).1;
+        (split, partition_by(run, |x| x[a] <= split))
+    } else {
+        let items = &mut *run.now;
+        items.select_nth_unstable_by(mid, |x, y| order(&x.p[a], &y.p[a]));
+        let split = items[mid].p[a];
+        // Move the ties after the median to the front of the above part.
+        let above = &mut items[mid + 1..];
+        let mut ties = 0;
+        for j in 0..above.len() {
+            if above[j].p[a] == split {
+                above.swap(ties, j);
+                ties += 1;
+            }
+        }
+        let end = mid + 1 + ties;
+        if end < items.len() {
+            // The points were partitioned where they lie: that buffer is
+            // the children's.
+            std::mem::swap(&mut run.now, &mut run.spare);
+            run.now_is_final = !run.now_is_final;
+        }
+        (split, end)
+    };
+    if at_or_below < run.now.len() {
+        return (at_or_below, split);
+    }
+    // The median is the largest coordinate (every point is at or below
+    // it): `run.now` holds all the points, in some order.
+    let below = partition_by(run, |x| x[a] < split);
+    // `below <= mid`: the median is not below itself.
+    if let Some(ties) = run.spare.get_mut(below..) {
+        let take = mid - below;
+        if take > 0 && take < ties.len() {
+            ties.select_nth_unstable_by_key(take, |it| it.index);
         }
     }
-    let end = mid + 1 + ties;
-    if end < items.len() {
-        (end, split)
-    } else {
-        (mid, split)
+    (mid, split)
+}
+
+/// Points (with their index) larger than this many bytes are partitioned
+/// by a selection among their coordinates ([`partition`]).
+const KEY_SELECT_MIN_BYTES: usize = 16;
+
+/// Writes the points of `run.now` for which `below` holds to the front
+/// of `run.spare`, in order, and the others to its back; returns how many
+/// are below. `run.now` is left as it was.
+fn partition_by<const D: usize, S: Scalar>(
+    run: &mut Run<'_, D, S>,
+    below: impl Fn(&[S; D]) -> bool,
+) -> usize {
+    let (mut lo, mut hi) = (0, run.now.len());
+    for it in run.now.iter() {
+        let b = below(&it.p);
+        // `lo < hi` until the last point: each step fills one slot.
+        run.spare[if b { lo } else { hi - 1 }] = *it;
+        lo += usize::from(b);
+        hi -= usize::from(!b);
+    }
+    lo
+}
+
+/// A node's points: in `now`, with `spare` (as long) for the partition to
+/// write into. `now_is_final` when `now` lies in the array the leaves'
+/// runs are read from (`spare` then is the other one).
+struct Run<'a, const D: usize, S> {
+    now: &'a mut [Item<D, S>],
+    spare: &'a mut [Item<D, S>],
+    now_is_final: bool,
+}
+
+impl<'a, const D: usize, S: Copy> Run<'a, D, S> {
+    /// The children's runs after a partition wrote the points into
+    /// `spare`: below `..mid`, above `mid..`.
+    fn children(self, mid: usize) -> [Run<'a, D, S>; 2] {
+        let (now_below, now_above) = self.now.split_at_mut(mid);
+        let (spare_below, spare_above) = self.spare.split_at_mut(mid);
+        let now_is_final = !self.now_is_final;
+        [
+            Run {
+                now: spare_below,
+                spare: now_below,
+                now_is_final,
+            },
+            Run {
+                now: spare_above,
+                spare: now_above,
+                now_is_final,
+            },
+        ]
+    }
+
+    /// The points in the final array, where their leaf's run is read.
+    fn into_final(self) -> &'a mut [Item<D, S>] {
+        if self.now_is_final {
+            self.now
+        } else {
+            self.spare.copy_from_slice(self.now);
+            self.spare
+        }
     }
 }
 
@@ -297,56 +414,57 @@ fn interior(a: usize, child: usize) -> PointNode {
     PointNode::interior(a as u32, child as u32).unwrap_or(PointNode::EMPTY_LEAF)
 }
 
-/// Builds the subtree over `items` into `t`, its root at `slot`.
+/// Builds the subtree over `run` into `t`, its root at `slot`.
 fn grow<const D: usize, S: Scalar>(
-    items: &mut [Item<D, S>],
+    mut run: Run<'_, D, S>,
     offset: usize,
     depth: u32,
     slot: usize,
     t: &mut Subtree<D, S>,
     params: &PointParams,
+    keys: &mut Vec<S>,
 ) {
-    let b = bounds_of(items);
+    let b = bounds_of(run.now);
     t.bounds[slot] = b;
     t.max_depth = t.max_depth.max(depth);
-    let Some(axis) = split_axis(items.len(), &b, depth, params) else {
-        t.nodes[slot] = leaf(items, offset);
+    let Some(axis) = split_axis(run.now.len(), &b, depth, params) else {
+        t.nodes[slot] = leaf(run.into_final(), offset);
         return;
     };
-    let (mid, split) = partition(items, axis);
+    let (mid, split) = partition(&mut run, axis, keys);
     let child = t.nodes.len();
     t.nodes[slot] = interior(axis, child);
     t.splits[slot] = split;
     t.nodes.extend([PointNode::EMPTY_LEAF; 2]);
     t.splits.extend([S::ZERO; 2]);
     t.bounds.extend([b; 2]);
-    let (below, above) = items.split_at_mut(mid);
-    grow(below, offset, depth + 1, child, t, params);
-    grow(above, offset + mid, depth + 1, child + 1, t, params);
+    let [below, above] = run.children(mid);
+    grow(below, offset, depth + 1, child, t, params, keys);
+    grow(above, offset + mid, depth + 1, child + 1, t, params, keys);
 }
 
 /// [`grow`] for a subtree rooted at 0, forking the two halves of large
 /// nodes onto rayon tasks.
 fn grow_parallel<const D: usize, S: Scalar>(
-    items: &mut [Item<D, S>],
+    mut run: Run<'_, D, S>,
     offset: usize,
     depth: u32,
     params: &PointParams,
 ) -> Subtree<D, S> {
-    let b = bounds_of(items);
-    let axis = split_axis(items.len(), &b, depth, params);
-    let (Some(axis), true) = (axis, items.len() >= params.parallel_min) else {
+    let b = bounds_of(run.now);
+    let axis = split_axis(run.now.len(), &b, depth, params);
+    let (Some(axis), true) = (axis, run.now.len() >= params.parallel_min) else {
         let mut t = Subtree {
             nodes: vec![PointNode::EMPTY_LEAF],
             splits: vec![S::ZERO],
             bounds: vec![b],
             max_depth: 0,
         };
-        grow(items, offset, depth, 0, &mut t, params);
+        grow(run, offset, depth, 0, &mut t, params, &mut Vec::new());
         return t;
     };
-    let (mid, split) = partition(items, axis);
-    let (below, above) = items.split_at_mut(mid);
+    let (mid, split) = partition(&mut run, axis, &mut Vec::new());
+    let [below, above] = run.children(mid);
     let (below, above) = rayon::join(
         || grow_parallel(below, offset, depth + 1, params),
         || grow_parallel(above, offset + mid, depth + 1, params),
@@ -447,6 +565,65 @@ mod tests {
         for p in &pts {
             let n = tree.nearest(*p).unwrap();
             assert_eq!(n.d2, 0.0);
+        }
+    }
+
+    /// The indices `partition` sends below on axis 0 of points whose
+    /// first coordinates are `xs` (the rest 0), in the order `order`
+    /// gives them, with the split.
+    fn below_set<const D: usize>(xs: &[f32], order: usize) -> (Vec<u32>, f32) {
+        let mut now: Vec<Item<D, f32>> = xs
+            .iter()
+            .enumerate()
+            .map(|(i, &x)| Item {
+                p: std::array::from_fn(|a| if a == 0 { x } else { 0.0 }),
+                index: i as u32,
+            })
+            .collect();
+        match order {
+            1 => now.reverse(),
+            2 => now.rotate_left(37),
+            3 => now.sort_by(|a, b| b.p[0].total_cmp(&a.p[0])),
+            _ => {}
+        }
+        let mut spare = now.clone();
+        let mut run = Run {
+            now: &mut now,
+            spare: &mut spare,
+            now_is_final: true,
+        };
+        let (mid, split) = partition(&mut run, 0, &mut Vec::new());
+        let mut ids: Vec<u32> = run.spare[..mid].iter().map(|it| it.index).collect();
+        ids.sort_unstable();
+        (ids, split)
+    }
+
+    #[test]
+    fn which_points_go_below_depends_on_coordinates_and_indices_only() {
+        // The median of the first set is below its largest coordinate;
+        // in the second, two thirds of the points sit at the largest, so
+        // ties split by index. 2-D points are selected where they lie,
+        // 8-D ones through their coordinates: both send the same points.
+        let mut rng = crate::rng::Rng::new(4);
+        let lattice: Vec<f32> = (0..101).map(|_| rng.below(4) as f32).collect();
+        let piled: Vec<f32> = (0..101)
+            .map(|_| if rng.below(3) == 0 { rng.f32() } else { 1.0 })
+            .collect();
+        assert!(size_of::<Item<2, f32>>() <= KEY_SELECT_MIN_BYTES);
+        assert!(size_of::<Item<8, f32>>() > KEY_SELECT_MIN_BYTES);
+        for xs in [lattice, piled] {
+            let (ids, split) = below_set::<2>(&xs, 0);
+            let at_or_below = xs.iter().filter(|&&x| x <= split).count();
+            let expected = if at_or_below < xs.len() {
+                at_or_below
+            } else {
+                50
+            };
+            assert_eq!(ids.len(), expected);
+            for order in 0..4 {
+                assert_eq!(below_set::<2>(&xs, order), (ids.clone(), split), "{order}");
+                assert_eq!(below_set::<8>(&xs, order), (ids.clone(), split), "{order}");
+            }
         }
     }
 

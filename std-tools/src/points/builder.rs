@@ -160,8 +160,7 @@ pub fn build_points<const D: usize, S: Scalar>(
         leaf_size: params.leaf_size.clamp(1, MAX_POINT_FIELD as usize),
         ..params.clone()
     };
-    // The partitions move the points between `items` and a spare copy.
-    let mut spare = items.clone();
+    let mut spare = spare_for(&items);
     let tree = grow_parallel(
         Run {
             now: &mut items,
@@ -273,9 +272,10 @@ fn split_axis<const D: usize, S: Scalar>(
 /// points then are. No point moves twice, and no branch depends on the
 /// side, a coin toss around a median. Against selecting the points
 /// themselves (`select_nth_unstable`, which moves each several times),
-/// one thread pinned, best of 7 `kdray build-points`: 1M points at 2-D
-/// 100 -> 106 ms and 3-D 73 -> 81 ms (so small points keep that), 300k
-/// at 8-D 48 -> 29 ms and 16-D 58 -> 46 ms. Tried: Hoare's two cursors
+/// one thread pinned, best of 7 interleaved `kdray build-points`: 300k
+/// points at 8-D 35.7 -> 29.9 ms, 16-D 70.8 -> 45.6 ms, 1M `f64` points
+/// at 3-D 94.1 -> 88.7 ms; small points lost (1M at 2-D 100 -> 106 ms,
+/// 3-D 73 -> 81 ms), so they keep that. Tried: Hoare's two cursors
 /// swapping in place (8-D 18% fewer instructions, slower on the clock:
 /// its loops mispredicted); a radix selection on integer keys of the
 /// coordinates (a byte histogram per pass, no compares: 1.33x the
@@ -295,47 +295,65 @@ fn partition<const D: usize, S: Scalar>(
     // which the rule above puts on one side): 93M -> 78M instructions
     // for a 100k-point 3-D build against `total_cmp`'s bit twiddling.
     let order = |x: &S, y: &S| x.partial_cmp(y).unwrap_or(std::cmp::Ordering::Equal);
-    let (split, at_or_below) = if size_of::<Item<D, S>>() > KEY_SELECT_MIN_BYTES {
+    if run.spare.len() == run.now.len() {
         keys.clear();
         keys.extend(run.now.iter().map(|it| it.p[a]));
         let split = *keys.select_nth_unstable_by(mid, order).1;
-        (split, partition_by(run, |x| x[a] <= split))
-    } else {
-        let items = &mut *run.now;
-        items.select_nth_unstable_by(mid, |x, y| order(&x.p[a], &y.p[a]));
-        let split = items[mid].p[a];
-        // Move the ties after the median to the front of the above part.
-        let above = &mut items[mid + 1..];
-        let mut ties = 0;
-        for j in 0..above.len() {
-            if above[j].p[a] == split {
-                above.swap(ties, j);
-                ties += 1;
-            }
+        let mut below = partition_by(run, |x| x[a] <= split);
+        if below == run.now.len() {
+            // The median is the largest coordinate.
+            below = partition_by(run, |x| x[a] < split);
+            ties_by_index(&mut run.spare[below..], mid - below);
+            below = mid;
         }
-        let end = mid + 1 + ties;
-        if end < items.len() {
-            // The points were partitioned where they lie: that buffer is
-            // the children's.
-            std::mem::swap(&mut run.now, &mut run.spare);
-            run.now_is_final = !run.now_is_final;
-        }
-        (split, end)
-    };
-    if at_or_below < run.now.len() {
-        return (at_or_below, split);
+        // The children's points are in the spare buffer now.
+        std::mem::swap(&mut run.now, &mut run.spare);
+        run.now_is_final = !run.now_is_final;
+        return (below, split);
     }
-    // The median is the largest coordinate (every point is at or below
-    // it): `run.now` holds all the points, in some order.
-    let below = partition_by(run, |x| x[a] < split);
-    // `below <= mid`: the median is not below itself.
-    if let Some(ties) = run.spare.get_mut(below..) {
-        let take = mid - below;
-        if take > 0 && take < ties.len() {
-            ties.select_nth_unstable_by_key(take, |it| it.index);
+    let items = &mut *run.now;
+    items.select_nth_unstable_by(mid, |x, y| order(&x.p[a], &y.p[a]));
+    let split = items[mid].p[a];
+    // Move the ties after the median to the front of the above part.
+    let above = &mut items[mid + 1..];
+    let mut ties = 0;
+    for j in 0..above.len() {
+        if above[j].p[a] == split {
+            above.swap(ties, j);
+            ties += 1;
         }
     }
+    let end = mid + 1 + ties;
+    if end < items.len() {
+        return (end, split);
+    }
+    // The median is the largest coordinate: the points below it first.
+    let mut below = 0;
+    for j in 0..items.len() {
+        if items[j].p[a] < split {
+            items.swap(below, j);
+            below += 1;
+        }
+    }
+    ties_by_index(&mut items[below..], mid - below);
     (mid, split)
+}
+
+/// Moves the `take` points of lowest index among `ties` to its front.
+fn ties_by_index<const D: usize, S>(ties: &mut [Item<D, S>], take: usize) {
+    if take > 0 && take < ties.len() {
+        ties.select_nth_unstable_by_key(take, |it| it.index);
+    }
+}
+
+/// The spare buffer [`partition`] moves `items` into: a copy for large
+/// points, none for those partitioned where they lie.
+fn spare_for<const D: usize, S: Copy>(items: &[Item<D, S>]) -> Vec<Item<D, S>> {
+    if size_of::<Item<D, S>>() > KEY_SELECT_MIN_BYTES {
+        items.to_vec()
+    } else {
+        Vec::new()
+    }
 }
 
 /// Points (with their index) larger than this many bytes are partitioned
@@ -360,9 +378,10 @@ fn partition_by<const D: usize, S: Scalar>(
     lo
 }
 
-/// A node's points: in `now`, with `spare` (as long) for the partition to
-/// write into. `now_is_final` when `now` lies in the array the leaves'
-/// runs are read from (`spare` then is the other one).
+/// A node's points: in `now`, with `spare` (as long, or empty for points
+/// partitioned where they lie) for the partition to write into.
+/// `now_is_final` when `now` lies in the array the leaves' runs are read
+/// from (`spare` then is the other one).
 struct Run<'a, const D: usize, S> {
     now: &'a mut [Item<D, S>],
     spare: &'a mut [Item<D, S>],
@@ -370,22 +389,21 @@ struct Run<'a, const D: usize, S> {
 }
 
 impl<'a, const D: usize, S: Copy> Run<'a, D, S> {
-    /// The children's runs after a partition wrote the points into
-    /// `spare`: below `..mid`, above `mid..`.
+    /// The children's runs after a partition: below `..mid`, above
+    /// `mid..` (an empty spare buffer stays empty).
     fn children(self, mid: usize) -> [Run<'a, D, S>; 2] {
         let (now_below, now_above) = self.now.split_at_mut(mid);
-        let (spare_below, spare_above) = self.spare.split_at_mut(mid);
-        let now_is_final = !self.now_is_final;
+        let (spare_below, spare_above) = self.spare.split_at_mut(mid.min(self.spare.len()));
         [
             Run {
-                now: spare_below,
-                spare: now_below,
-                now_is_final,
+                now: now_below,
+                spare: spare_below,
+                now_is_final: self.now_is_final,
             },
             Run {
-                now: spare_above,
-                spare: now_above,
-                now_is_final,
+                now: now_above,
+                spare: spare_above,
+                now_is_final: self.now_is_final,
             },
         ]
     }
@@ -586,14 +604,14 @@ mod tests {
             3 => now.sort_by(|a, b| b.p[0].total_cmp(&a.p[0])),
             _ => {}
         }
-        let mut spare = now.clone();
+        let mut spare = spare_for(&now);
         let mut run = Run {
             now: &mut now,
             spare: &mut spare,
             now_is_final: true,
         };
         let (mid, split) = partition(&mut run, 0, &mut Vec::new());
-        let mut ids: Vec<u32> = run.spare[..mid].iter().map(|it| it.index).collect();
+        let mut ids: Vec<u32> = run.now[..mid].iter().map(|it| it.index).collect();
         ids.sort_unstable();
         (ids, split)
     }

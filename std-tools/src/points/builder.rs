@@ -284,7 +284,9 @@ fn split_axis<const D: usize, S: Scalar>(
 /// gathered by position (12% more instructions at 16-D: the gather reads
 /// out of order); a `u32` index array selected with ties broken by index
 /// (1.2-1.5x the build time, the extra compare mispredicted); the item
-/// aligned to 16 bytes (the same time).
+/// aligned to 16 bytes (the same time); both children's boxes taken in
+/// `partition_by`'s pass, branch-free (1.8x the time at 8-D and 16-D:
+/// four masked compare-selects per coordinate instead of two).
 fn partition<const D: usize, S: Scalar>(
     run: &mut Run<'_, D, S>,
     a: usize,

@@ -265,7 +265,7 @@ fn split_axis<const D: usize, S: Scalar>(
 /// the median, or, when the median is the largest coordinate, those below
 /// it and then the ties of lowest index up to `mid`.
 ///
-/// Large points (over [`KEY_SELECT_MIN_BYTES`] with their index) are
+/// Large points ([`through_coordinates`]) are
 /// not moved by the selection: the median is selected among a copy of
 /// the coordinates (`keys`, the caller's scratch), then one pass writes
 /// each point to its side in the run's spare buffer, where the children's
@@ -297,39 +297,40 @@ fn partition<const D: usize, S: Scalar>(
     // which the rule above puts on one side): 93M -> 78M instructions
     // for a 100k-point 3-D build against `total_cmp`'s bit twiddling.
     let order = |x: &S, y: &S| x.partial_cmp(y).unwrap_or(std::cmp::Ordering::Equal);
-    if run.spare.len() == run.now.len() {
+    let split = if through_coordinates::<D, S>() {
         keys.clear();
         keys.extend(run.now.iter().map(|it| it.p[a]));
         let split = *keys.select_nth_unstable_by(mid, order).1;
-        let mut below = partition_by(run, |x| x[a] <= split);
-        if below == run.now.len() {
-            // The median is the largest coordinate.
-            below = partition_by(run, |x| x[a] < split);
-            ties_by_index(&mut run.spare[below..], mid - below);
-            below = mid;
+        let below = partition_by(run, |x| x[a] <= split);
+        if below < run.now.len() {
+            // The children's points are in the spare buffer now.
+            std::mem::swap(&mut run.now, &mut run.spare);
+            run.now_is_final = !run.now_is_final;
+            return (below, split);
         }
-        // The children's points are in the spare buffer now.
-        std::mem::swap(&mut run.now, &mut run.spare);
-        run.now_is_final = !run.now_is_final;
-        return (below, split);
-    }
+        split
+    } else {
+        let items = &mut *run.now;
+        items.select_nth_unstable_by(mid, |x, y| order(&x.p[a], &y.p[a]));
+        let split = items[mid].p[a];
+        // Move the ties after the median to the front of the above part.
+        let above = &mut items[mid + 1..];
+        let mut ties = 0;
+        for j in 0..above.len() {
+            if above[j].p[a] == split {
+                above.swap(ties, j);
+                ties += 1;
+            }
+        }
+        let end = mid + 1 + ties;
+        if end < items.len() {
+            return (end, split);
+        }
+        split
+    };
+    // The median is the largest coordinate; every point is still in
+    // `run.now`. The points below it first, then the ties of lowest index.
     let items = &mut *run.now;
-    items.select_nth_unstable_by(mid, |x, y| order(&x.p[a], &y.p[a]));
-    let split = items[mid].p[a];
-    // Move the ties after the median to the front of the above part.
-    let above = &mut items[mid + 1..];
-    let mut ties = 0;
-    for j in 0..above.len() {
-        if above[j].p[a] == split {
-            above.swap(ties, j);
-            ties += 1;
-        }
-    }
-    let end = mid + 1 + ties;
-    if end < items.len() {
-        return (end, split);
-    }
-    // The median is the largest coordinate: the points below it first.
     let mut below = 0;
     for j in 0..items.len() {
         if items[j].p[a] < split {
@@ -337,30 +338,29 @@ fn partition<const D: usize, S: Scalar>(
             below += 1;
         }
     }
-    ties_by_index(&mut items[below..], mid - below);
-    (mid, split)
-}
-
-/// Moves the `take` points of lowest index among `ties` to its front.
-fn ties_by_index<const D: usize, S>(ties: &mut [Item<D, S>], take: usize) {
+    let take = mid - below; // the median is not below itself
+    let ties = &mut items[below..];
     if take > 0 && take < ties.len() {
         ties.select_nth_unstable_by_key(take, |it| it.index);
     }
+    (mid, split)
 }
 
 /// The spare buffer [`partition`] moves `items` into: a copy for large
 /// points, none for those partitioned where they lie.
 fn spare_for<const D: usize, S: Copy>(items: &[Item<D, S>]) -> Vec<Item<D, S>> {
-    if size_of::<Item<D, S>>() > KEY_SELECT_MIN_BYTES {
+    if through_coordinates::<D, S>() {
         items.to_vec()
     } else {
         Vec::new()
     }
 }
 
-/// Points (with their index) larger than this many bytes are partitioned
-/// by a selection among their coordinates ([`partition`]).
-const KEY_SELECT_MIN_BYTES: usize = 16;
+/// Are points of this shape partitioned through a selection among their
+/// coordinates ([`partition`])? Those over 16 bytes with their index.
+const fn through_coordinates<const D: usize, S>() -> bool {
+    size_of::<Item<D, S>>() > 16
+}
 
 /// Writes the points of `run.now` for which `below` holds to the front
 /// of `run.spare`, in order, and the others to its back; returns how many
@@ -629,8 +629,8 @@ mod tests {
         let piled: Vec<f32> = (0..101)
             .map(|_| if rng.below(3) == 0 { rng.f32() } else { 1.0 })
             .collect();
-        assert!(size_of::<Item<2, f32>>() <= KEY_SELECT_MIN_BYTES);
-        assert!(size_of::<Item<8, f32>>() > KEY_SELECT_MIN_BYTES);
+        assert!(!through_coordinates::<2, f32>());
+        assert!(through_coordinates::<8, f32>());
         for xs in [lattice, piled] {
             let (ids, split) = below_set::<2>(&xs, 0);
             let at_or_below = xs.iter().filter(|&&x| x <= split).count();

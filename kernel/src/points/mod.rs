@@ -73,6 +73,8 @@ impl<S: Scalar> Neighbour<S> {
     #[inline(always)]
     #[must_use]
     pub fn precedes(d2: S, index: u32, other: Neighbour<S>) -> bool {
+        // Tried: `|` and `&` for one branch less (no second branch on
+        // equal distances): k = 10 at 2-D 0.86-0.88x -> 0.82x kiddo.
         d2 < other.d2 || (d2 == other.d2 && index < other.index)
     }
 

@@ -783,6 +783,36 @@ mod tests {
         }
     }
 
+    /// `bounds_of` against one fold over every point, at each length
+    /// around its four boxes' groups.
+    fn bounds_match_a_fold<const D: usize>(r: &mut crate::rng::Rng) {
+        for n in 1..20 {
+            let items: Vec<Item<D, f32>> = (0..n)
+                .map(|i| Item {
+                    p: std::array::from_fn(|_| r.range(-5.0, 5.0)),
+                    index: i,
+                })
+                .collect();
+            let mut want = [items[0].p; 2];
+            for it in &items {
+                for a in 0..D {
+                    want[0][a] = want[0][a].min(it.p[a]);
+                    want[1][a] = want[1][a].max(it.p[a]);
+                }
+            }
+            assert_eq!(bounds_of(&items), want, "D {D} n {n}");
+        }
+    }
+
+    #[test]
+    fn node_bounds_are_tight() {
+        let mut r = crate::rng::Rng::new(4);
+        bounds_match_a_fold::<1>(&mut r);
+        bounds_match_a_fold::<2>(&mut r);
+        bounds_match_a_fold::<3>(&mut r);
+        assert_eq!(bounds_of::<2, f32>(&[]), [[0.0; 2]; 2]);
+    }
+
     #[test]
     fn a_pile_is_one_leaf_and_empty_sets_build() {
         let pile = vec![[1.0f32, 2.0, 3.0]; 1000];

@@ -793,13 +793,12 @@ mod tests {
                     index: i,
                 })
                 .collect();
-            let mut want = [items[0].p; 2];
-            for it in &items {
-                for a in 0..D {
-                    want[0][a] = want[0][a].min(it.p[a]);
-                    want[1][a] = want[1][a].max(it.p[a]);
-                }
-            }
+            let want = items.iter().fold([items[0].p; 2], |[lo, hi], it| {
+                [
+                    std::array::from_fn(|a| lo[a].min(it.p[a])),
+                    std::array::from_fn(|a| hi[a].max(it.p[a])),
+                ]
+            });
             assert_eq!(bounds_of(&items), want, "D {D} n {n}");
         }
     }

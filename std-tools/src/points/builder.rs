@@ -386,10 +386,13 @@ fn partition<const D: usize, S: Scalar>(
     let items = &mut *run.now;
     let mut below = 0;
     for j in 0..items.len() {
-        if items[j].p[a] < split {
-            items.swap(below, j);
-            below += 1;
-        }
+        // Swapped whichever side the point is on, without a branch (near
+        // a median the side is a coin toss): `items[below..j]` are all
+        // above, so the swap moves one of them (or the point itself) to
+        // `j`.
+        let b = items[j].p[a] < split;
+        items.swap(below, j);
+        below += usize::from(b);
     }
     let take = mid - below; // the median is not below itself
     let ties = &mut items[below..];

@@ -217,7 +217,7 @@ struct Subtree<const D: usize, S> {
 fn bounds_of<const D: usize, S: Scalar>(items: &[Item<D, S>]) -> [[S; D]; 2] {
     // Up to 2-D a box's four compare-selects a point wait on the last
     // point's: four boxes over every fourth point, merged at the end, cut
-    // the knn bench's 100k-point 2-D builds from 7.0-7.1 to 5.3 ms. From
+    // the knn bench's 100k-point 2-D builds from 7.0-7.1 to 5.5 ms. From
     // 3-D on a point already gives the processor six or more independent
     // compare-selects, and four boxes no longer fit in its registers
     // (3-D 4.9-5.0 -> 5.1-5.3 ms).
@@ -388,8 +388,8 @@ fn partition<const D: usize, S: Scalar>(
     for j in 0..items.len() {
         // Swapped whichever side the point is on, without a branch (near
         // a median the side is a coin toss): `items[below..j]` are all
-        // above, so the swap moves one of them (or the point itself) to
-        // `j`.
+        // not below, so the swap moves one of them (or the point itself)
+        // to `j`.
         let b = items[j].p[a] < split;
         items.swap(below, j);
         below += usize::from(b);
@@ -491,7 +491,7 @@ fn leaf<const D: usize, S: Copy>(items: &mut [Item<D, S>], offset: usize) -> Poi
 /// count of lower indices: every index compared with every other, a
 /// vector compare and sum without a branch, then one move per point. A
 /// comparison sort mispredicts on about every other compare of indices in
-/// random order (a third of the build's mispredicts at 2-D, callgrind):
+/// random order (a quarter of the build's mispredicts at 2-D, callgrind):
 /// the knn bench's 100k-point builds 2-D 7.4 -> 7.0 ms, 3-D 5.5 -> 4.9 ms
 /// (best of 15, pinned, interleaved). Large points
 /// ([`through_coordinates`]) keep the sort: the ranked copy of their

@@ -66,21 +66,22 @@ impl<V: Lanes<N>, const N: usize> LaneRays<V, N> {
         );
         let tmin = self.tmin;
         let mut win = watertight::<V, N, ANY>(a, b, c, self.shear[2], live, tmin, tmax)?;
-        // The `f64` `t` of every lane that needs one, now (eager). Tried:
-        // the single ray's deferral per lane (`Closest`'s windows in lanes,
-        // the deferred lanes resolved at the end, lanes sharing a best
-        // triangle together): the same hits; 8-wide / 16-wide camera tiles
-        // bunny +3.5% / +7%, teapot 0% / +1%, sponza -3% / -3%: a lane is
-        // mostly hit by one triangle, so its `f64` `t` is taken once either
-        // way, and the deferral's masks come on top (once the lanes' `t`
-        // was written by selects: bunny +1.6% / +4%, teapot -3% / -1%,
-        // sponza -6% / -6%). Resolved all at once,
-        // each lane against its own triangle's plane: sponza and teapot
-        // 4-10% slower still. A camera packet's one origin passed as such
-        // (`n·(v0 - org)` and the box margins formed once for all lanes):
-        // 8-wide 2.5-7% slower, 16-wide 3-4% faster, +1-2% instructions.
-        // Origin and direction kept as lane arrays in `LaneRays` instead
-        // of converted here: +1.5-2% instructions.
+        // The `f64` `t` of every lane that needs one, now (eager). Tried
+        // (8-wide / 16-wide camera tiles, the same hits each time):
+        // - the single ray's deferral per lane (`Closest`'s windows in
+        //   lanes, the deferred lanes resolved at the end, lanes sharing a
+        //   best triangle together): bunny +3.5% / +7%, teapot 0% / +1%,
+        //   sponza -3% / -3%; once the lanes' `t` was written by selects,
+        //   bunny +1.6% / +4%, teapot -3% / -1%, sponza -6% / -6%. A lane
+        //   is mostly hit by one triangle, so it takes one `f64` `t` either
+        //   way, and the deferral's masks come on top. Resolved all at
+        //   once, each lane against its own triangle's plane: sponza and
+        //   teapot 4-10% slower still;
+        // - a camera packet's one origin passed as such (`n·(v0 - org)`
+        //   and the box margins formed once for all lanes): 8-wide 2.5-7%
+        //   slower, 16-wide 3-4% faster, +1-2% instructions;
+        // - origin and direction kept as lane arrays in `LaneRays` instead
+        //   of converted here: +1.5-2% instructions.
         if win.exact != 0 {
             let (org, dir) = (self.org.map(V::to_array), self.dir.map(V::to_array));
             plane_t_lanes::<V, N>(&org, &dir, tri, win.exact, &mut win.t);

@@ -47,17 +47,18 @@ impl<const D: usize, S: Scalar> PointTreeN<'_, D, S> {
             return;
         }
         'descend: loop {
+            let (Some(&first), Some(&first_split)) = (
+                self.nodes.get(node_idx as usize),
+                self.splits.get(node_idx as usize),
+            ) else {
+                return;
+            };
+            let (mut node, mut split) = (first, first_split);
             // Walk down to a leaf, near child first. No box is read here:
             // the far child's bound is the larger of the split plane's gap
             // (every far point is beyond the plane, validated) and the
             // subtree's own bound; its box is read only if it is popped.
             let leaf = loop {
-                let (Some(&node), Some(&split)) = (
-                    self.nodes.get(node_idx as usize),
-                    self.splits.get(node_idx as usize),
-                ) else {
-                    break None;
-                };
                 if visits_left == 0 {
                     return;
                 }
@@ -65,6 +66,22 @@ impl<const D: usize, S: Scalar> PointTreeN<'_, D, S> {
                 if node.is_leaf() {
                     break Some(node);
                 }
+                // Both children (side by side) are loaded before the side
+                // is known, so the next node's load runs beside this
+                // node's compare instead of after it: the descent's chain
+                // is one load or one compare a level, not both.
+                let child = node.word0();
+                let c = child as usize;
+                let (Some(&[below, above]), Some(&[s_below, s_above])) = (
+                    self.nodes
+                        .get(c..c.wrapping_add(2))
+                        .and_then(|p| p.first_chunk()),
+                    self.splits
+                        .get(c..c.wrapping_add(2))
+                        .and_then(|p| p.first_chunk()),
+                ) else {
+                    break None;
+                };
                 // A validated axis is below D; the clamp keeps an
                 // unvalidated one in range without a branch. Tried: the
                 // coordinate picked by `select_unpredictable` instead of
@@ -74,19 +91,21 @@ impl<const D: usize, S: Scalar> PointTreeN<'_, D, S> {
                 let axis = (node.field() as usize).min(D - 1);
                 let gap = q[axis] - split;
                 // Near child: the one on the query's side of the split
-                // plane (below for coordinates <= split). Tried: the
-                // choice as an `if` (to let a predicted branch start the
-                // next node's load early): no change in pinned runs.
-                let above_near = u32::from(gap > S::ZERO);
-                let child = node.word0();
+                // plane (below for coordinates <= split), picked by a
+                // select: the side is a coin toss on scattered queries.
+                let above_near = gap > S::ZERO;
                 let far_d = larger(gap * gap, lower);
-                if far_d <= acc.bound() {
-                    if let Some(slot) = stack.get_mut(len) {
-                        *slot = (child.wrapping_add(1).wrapping_sub(above_near), far_d);
-                        len += 1;
-                    }
+                // Written always, kept when within the bound: no branch.
+                if let Some(slot) = stack.get_mut(len) {
+                    *slot = (child.wrapping_add(u32::from(!above_near)), far_d);
+                    len += usize::from(far_d <= acc.bound());
                 }
-                node_idx = child.wrapping_add(above_near);
+                node_idx = child.wrapping_add(u32::from(above_near));
+                (node, split) = core::hint::select_unpredictable(
+                    above_near,
+                    (above, s_above),
+                    (below, s_below),
+                );
             };
             if let Some(node) = leaf {
                 self.scan_leaf(node_idx, node, q, acc);
@@ -168,9 +187,7 @@ impl<const D: usize, S: Scalar> PointTreeN<'_, D, S> {
             // Most chunks lose whole: one vector min and one compare
             // decide it (the min starts at +inf, so a NaN never hides a
             // point; the per-point test below is the exact one).
-            let nearest = d
-                .iter()
-                .fold(S::INFINITY, |m, &x| if x < m { x } else { m });
+            let nearest = chunk_min(&d);
             if nearest > acc.bound() {
                 continue;
             }
@@ -221,6 +238,18 @@ fn chunk_distances<const D: usize, S: Scalar>(
         }
     }
     d
+}
+
+/// The least of a chunk's distances, halves side by side (a vector min
+/// each, not a chain of eight compares). A NaN distance may survive or
+/// drop out; either way no point is lost, since the per-point test never
+/// offers a NaN and a NaN minimum skips nothing.
+#[inline(always)]
+fn chunk_min<S: Scalar>(d: &[S; CHUNK]) -> S {
+    let low = |a: S, b: S| if b < a { b } else { a };
+    let m4: [S; 4] = core::array::from_fn(|i| low(d[i], d[i + 4]));
+    let m2 = [low(m4[0], m4[2]), low(m4[1], m4[3])];
+    low(m2[0], m2[1])
 }
 
 /// Points per step of the leaf scan.

@@ -81,6 +81,27 @@ pub(crate) trait Lanes<const N: usize>:
     fn select(mask: Self, if_true: Self, if_false: Self) -> Self;
     /// The lane mask of a bitmask.
     fn mask(bits: u32) -> Self;
+    /// Up to `N` records of nine floats (a triangle's three vertices),
+    /// `items[at[l]]` in lane `l` wherever `at[l]` is in range and not
+    /// `skip`, as nine vectors (float `f` of every record in vector `f`),
+    /// with the bitmask of those lanes (the others hold anything).
+    #[inline(always)]
+    fn nine_rows(items: &[[f32; 9]], at: &[u32], skip: u32) -> ([Self; 9], u32) {
+        let mut rows = [[0.0f32; N]; 9];
+        let mut live = 0u32;
+        for (l, &p) in at.iter().enumerate() {
+            let Some(item) = items.get(p as usize).filter(|_| p != skip) else {
+                continue;
+            };
+            // `at` holds at most N: `l % N` is `l`, and proves it.
+            let l = l % N;
+            live |= 1 << l;
+            for (row, &x) in rows.iter_mut().zip(item) {
+                row[l] = x;
+            }
+        }
+        (rows.map(Self::from_array), live)
+    }
     /// Whether values of this type exist only in code run after AVX2 was
     /// detected (the AVX2 and AVX-512 levels' types), so that code
     /// generic over it may use AVX2 (the triangle's `plane_t`).

@@ -177,9 +177,65 @@ fn columns8(rays: &[Ray]) -> [Avx8; 8] {
     ]
 }
 
+/// [`Lanes::nine_rows`] for 8 lanes: each record's first eight floats
+/// loaded as one row and the rows transposed in registers, the ninth
+/// floats put together from scalars. The default's 72 scalar stores,
+/// read back as vectors, stall each vector load until the stores reach
+/// the cache (a store cannot forward to a wider load).
+#[inline(always)]
+fn nine_rows8(items: &[[f32; 9]], at: &[u32], skip: u32) -> ([Avx8; 9], u32) {
+    // Lanes not live read a zero record.
+    const NONE: [f32; 9] = [0.0; 9];
+    let mut live = 0u32;
+    let mut rec = [&NONE; 8];
+    for (l, (r, &p)) in rec.iter_mut().zip(at).enumerate() {
+        if let Some(item) = items.get(p as usize).filter(|_| p != skip) {
+            *r = item;
+            live |= 1 << l;
+        }
+    }
+    // SAFETY (besides `avx!`'s): each record is 36 readable bytes, and a
+    // row reads its first 32.
+    #[inline(always)]
+    fn row(x: &[f32; 9]) -> __m256 {
+        avx!(_mm256_loadu_ps(x.as_ptr()))
+    }
+    let r = transpose8([
+        row(rec[0]),
+        row(rec[1]),
+        row(rec[2]),
+        row(rec[3]),
+        row(rec[4]),
+        row(rec[5]),
+        row(rec[6]),
+        row(rec[7]),
+    ]);
+    let ninth = avx!(_mm256_setr_ps(
+        rec[0][8], rec[1][8], rec[2][8], rec[3][8], rec[4][8], rec[5][8], rec[6][8], rec[7][8],
+    ));
+    (
+        [
+            Avx8(r[0]),
+            Avx8(r[1]),
+            Avx8(r[2]),
+            Avx8(r[3]),
+            Avx8(r[4]),
+            Avx8(r[5]),
+            Avx8(r[6]),
+            Avx8(r[7]),
+            Avx8(ninth),
+        ],
+        live,
+    )
+}
+
 impl Lanes<8> for Avx8 {
     // Both levels that make `Avx8` values include AVX2.
     const AVX2: bool = true;
+    #[inline(always)]
+    fn nine_rows(items: &[[f32; 9]], at: &[u32], skip: u32) -> ([Self; 9], u32) {
+        nine_rows8(items, at, skip)
+    }
     #[inline(always)]
     fn from_array(a: [f32; 8]) -> Self {
         // SAFETY (besides `avx!`'s): an `[f32; 8]` is 32 readable bytes.

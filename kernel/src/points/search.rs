@@ -202,6 +202,10 @@ impl<const D: usize, S: Scalar> PointTreeN<'_, D, S> {
             // but 1.34x the instructions (the selects stayed scalar) and
             // 0.58-0.61x kiddo against 0.81-0.83x: the mispredicts are
             // not what is left of the gap.
+            // Tried: the whole search compiled at the run-time ISA level
+            // (`lanes::dispatch`, a chunk's distances in one AVX
+            // register): 2-D k = 1 0.95-0.98x -> 0.92-0.93x kiddo, 8-D and
+            // 16-D within the noise; the scan's arithmetic is not the cost.
             // Tried for every k: a mask of the chunk's points within the
             // bound (one compare each), offered by its set bits: 2-D and
             // 3-D k = 1 0.97x -> 0.93x kiddo, k = 10 unchanged (0.88-0.93x).

@@ -384,6 +384,64 @@ mod tests {
     }
 
     #[test]
+    fn nine_rows_gather_the_live_records_at_every_level() {
+        /// `L`'s eight-lane `nine_rows`, as arrays.
+        struct Rows<'a> {
+            items: &'a [[f32; 9]],
+            at: &'a [u32],
+            skip: u32,
+        }
+        impl Job for Rows<'_> {
+            type Out = ([[f32; 8]; 9], u32);
+            #[inline(always)]
+            fn run<L: Level>(self) -> Self::Out {
+                let (rows, live) = L::X8::nine_rows(self.items, self.at, self.skip);
+                (rows.map(Lanes::to_array), live)
+            }
+        }
+        // Record i, float f = 100 i + f; record 3 holds a NaN with a payload
+        // and a -0, which must arrive as the same bits.
+        let mut items: [[f32; 9]; 12] =
+            core::array::from_fn(|i| core::array::from_fn(|f| (100 * i + f) as f32));
+        items[3][8] = f32::from_bits(0x7FC0_1234);
+        items[3][0] = -0.0;
+        let lists: [&[u32]; 6] = [
+            &[],
+            &[3],
+            &[0, 11, 5],
+            &[7, 99, 3, 3, 2, 1, 0, 8],
+            &[11, 10, 9, 8, 7, 6, 5],
+            &[u32::MAX, 4, 6],
+        ];
+        let _level = crate::cpu::tests::LEVEL.lock();
+        let detected = crate::cpu::detected_isa();
+        for level in crate::cpu::Isa::ALL.into_iter().filter(|&l| l <= detected) {
+            crate::cpu::set_isa(level).unwrap();
+            for at in lists {
+                for skip in [u32::MAX, 3, 5] {
+                    let (rows, live) = dispatch(Rows {
+                        items: &items,
+                        at,
+                        skip,
+                    });
+                    let mut want = 0;
+                    for (l, &p) in at.iter().enumerate() {
+                        let Some(item) = items.get(p as usize).filter(|_| p != skip) else {
+                            continue;
+                        };
+                        want |= 1 << l;
+                        for (f, row) in rows.iter().enumerate() {
+                            assert_eq!(row[l].to_bits(), item[f].to_bits(), "{level:?} {at:?}");
+                        }
+                    }
+                    assert_eq!(live, want, "{level:?} {at:?} skip {skip}");
+                }
+            }
+        }
+        crate::cpu::set_isa(detected).unwrap();
+    }
+
+    #[test]
     fn lanes_match_scalar_ops_bitwise() {
         check::<f32x8>();
         // The 4-wide type through two halves.

@@ -70,6 +70,9 @@ impl<'o, S: Scalar> Knn<'o, S> {
     }
 
     /// Sorted insertion of a point known to belong in the answer.
+    /// (Tried: every kept slot rewritten by selects, a loop of fixed
+    /// length without the mispredicted exit: k = 10 at 2-D and 3-D
+    /// 0.88-0.90x -> 0.68-0.75x kiddo.)
     #[inline(always)]
     fn insert_sorted(&mut self, n: Neighbour<S>) {
         let k = self.out.len();

@@ -209,6 +209,22 @@ macro_rules! impl_lanes {
     };
 }
 
+/// Hints the cache to fetch the line holding `p` (any address: a hint
+/// reads nothing the program sees and never faults). A no-op off x86-64
+/// and under Miri.
+#[inline(always)]
+pub(crate) fn prefetch<T>(p: *const T) {
+    #[cfg(all(target_arch = "x86_64", not(miri)))]
+    // SAFETY: a prefetch only hints the cache: it reads nothing the
+    // program sees and never faults, for any address.
+    unsafe {
+        use core::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        _mm_prefetch::<_MM_HINT_T0>(p.cast());
+    }
+    #[cfg(not(all(target_arch = "x86_64", not(miri))))]
+    let _ = p;
+}
+
 /// Ray `l` of `rays` as its 8 floats (zeros past the end).
 #[inline(always)]
 fn ray_floats(rays: &[Ray], l: usize) -> [f32; 8] {

@@ -6,6 +6,7 @@
 
 use super::scalar::{box_distance2, larger};
 use super::{distance2, PointNode, PointTreeN, Scalar, MAX_DEPTH};
+use crate::lanes::prefetch;
 
 /// What a query keeps while the search runs.
 pub(crate) trait Accumulator<S> {
@@ -97,10 +98,15 @@ impl<const D: usize, S: Scalar> PointTreeN<'_, D, S> {
                 let above_near = gap > S::ZERO;
                 let far_d = larger(gap * gap, lower);
                 // Written always, kept when within the bound: no branch.
+                let far = child.wrapping_add(u32::from(!above_near));
                 if let Some(slot) = stack.get_mut(len) {
-                    *slot = (child.wrapping_add(u32::from(!above_near)), far_d);
+                    *slot = (far, far_d);
                     len += usize::from(far_d <= acc.bound());
                 }
+                // The far child's box is read if it is popped: fetched
+                // now, it is there by then (8-D 1.03x -> 1.08-1.10x
+                // kiddo, 3-D +1-3%, 2-D unchanged; an 8-D box is a line).
+                prefetch(self.bounds.as_ptr().wrapping_add(far as usize));
                 node_idx = child.wrapping_add(u32::from(above_near));
                 (node, split) = core::hint::select_unpredictable(
                     above_near,

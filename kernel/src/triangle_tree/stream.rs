@@ -17,7 +17,7 @@ use super::walk::{ClosestVisit, LeafIter, Pending, Visit};
 use super::TriangleTree;
 use crate::blob::{Node, MAX_DEPTH};
 use crate::geometry::{Hit, Ray};
-use crate::lanes::Span;
+use crate::lanes::{prefetch, Span};
 use crate::triangle::{Closest, ShearedRay};
 use core::mem::MaybeUninit;
 
@@ -42,21 +42,6 @@ struct Walk {
     stack: [MaybeUninit<Pending>; MAX_DEPTH as usize],
 }
 
-/// Hints the cache to fetch the line holding `x`.
-#[inline(always)]
-fn prefetch<T>(x: &T) {
-    #[cfg(all(target_arch = "x86_64", not(miri)))]
-    // SAFETY: a prefetch only hints the cache: it reads nothing the
-    // program sees and never faults, for any address (and this one is a
-    // live reference).
-    unsafe {
-        use core::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        _mm_prefetch::<_MM_HINT_T0>((x as *const T).cast());
-    }
-    #[cfg(not(all(target_arch = "x86_64", not(miri))))]
-    let _ = x;
-}
-
 impl<'a> TriangleTree<'a> {
     /// Prefetches what the walk reads at `node` next: an interior node's
     /// child pair, a leaf's run of primitive indices (or its one triangle).
@@ -65,14 +50,14 @@ impl<'a> TriangleTree<'a> {
         let at = node.upper() as usize;
         if !node.is_leaf() {
             if let Some(n) = self.nodes.get(at) {
-                prefetch(n);
+                prefetch(n as *const _);
             }
         } else if at == 1 {
             if let Some(t) = self.triangles.get(node.word0() as usize) {
-                prefetch(t);
+                prefetch(t as *const _);
             }
         } else if let Some(p) = self.prims.get(node.word0() as usize) {
-            prefetch(p);
+            prefetch(p as *const _);
         }
     }
 
@@ -82,7 +67,7 @@ impl<'a> TriangleTree<'a> {
         if let super::LeafPrims::Run(run) = self.leaf_prims(node) {
             for &p in run {
                 if let Some(t) = self.triangles.get(p as usize) {
-                    prefetch(t);
+                    prefetch(t as *const _);
                 }
             }
         }

@@ -174,7 +174,7 @@ proptest! {
         kind in 0..KINDS,
         n in 0usize..3000,
         seed in any::<u64>(),
-        leaf_size in 1usize..20,
+        leaf_size in 1usize..80,
     ) {
         let params = PointParams { leaf_size, parallel_min: 500, ..Default::default() };
         check_all(&point_set::<3, f32>(kind, n, seed), &params, seed);

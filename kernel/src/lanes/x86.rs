@@ -155,26 +155,17 @@ fn columns8(rays: &[Ray]) -> [Avx8; 8] {
     fn row(rays: &[Ray], l: usize) -> __m256 {
         Avx8::from_array(ray_floats(rays, l)).0
     }
-    let r = transpose8([
-        row(rays, 0),
-        row(rays, 1),
-        row(rays, 2),
-        row(rays, 3),
-        row(rays, 4),
-        row(rays, 5),
-        row(rays, 6),
-        row(rays, 7),
-    ]);
-    [
-        Avx8(r[0]),
-        Avx8(r[1]),
-        Avx8(r[2]),
-        Avx8(r[3]),
-        Avx8(r[4]),
-        Avx8(r[5]),
-        Avx8(r[6]),
-        Avx8(r[7]),
-    ]
+    let mut rows = [avx!(_mm256_setzero_ps()); 8];
+    for (l, r) in rows.iter_mut().enumerate() {
+        *r = row(rays, l);
+    }
+    transposed(rows)
+}
+
+/// Eight rows of eight floats as eight lane vectors, row `r` in lane `r`.
+#[inline(always)]
+fn transposed(rows: [__m256; 8]) -> [Avx8; 8] {
+    transpose8(rows).map(Avx8)
 }
 
 /// [`Lanes::nine_rows`] for 8 lanes: each record's first eight floats
@@ -200,33 +191,15 @@ fn nine_rows8(items: &[[f32; 9]], at: &[u32], skip: u32) -> ([Avx8; 9], u32) {
     fn row(x: &[f32; 9]) -> __m256 {
         avx!(_mm256_loadu_ps(x.as_ptr()))
     }
-    let r = transpose8([
-        row(rec[0]),
-        row(rec[1]),
-        row(rec[2]),
-        row(rec[3]),
-        row(rec[4]),
-        row(rec[5]),
-        row(rec[6]),
-        row(rec[7]),
-    ]);
+    let mut rows = [avx!(_mm256_setzero_ps()); 8];
+    for (r, x) in rows.iter_mut().zip(rec) {
+        *r = row(x);
+    }
+    let [r0, r1, r2, r3, r4, r5, r6, r7] = transposed(rows);
     let ninth = avx!(_mm256_setr_ps(
         rec[0][8], rec[1][8], rec[2][8], rec[3][8], rec[4][8], rec[5][8], rec[6][8], rec[7][8],
     ));
-    (
-        [
-            Avx8(r[0]),
-            Avx8(r[1]),
-            Avx8(r[2]),
-            Avx8(r[3]),
-            Avx8(r[4]),
-            Avx8(r[5]),
-            Avx8(r[6]),
-            Avx8(r[7]),
-            Avx8(ninth),
-        ],
-        live,
-    )
+    ([r0, r1, r2, r3, r4, r5, r6, r7, Avx8(ninth)], live)
 }
 
 impl Lanes<8> for Avx8 {

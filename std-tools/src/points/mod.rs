@@ -7,6 +7,9 @@
 //! ```
 
 mod builder;
+mod by_keys;
+mod in_place;
+mod store;
 
 pub use builder::{build_points, BuiltPoints, PointBuildError, PointParams, MAX_POINTS};
 

@@ -1,0 +1,238 @@
+//! Points of all other sizes (2-D `f32`, and from 4-D `f32` and 2-D `f64`
+//! on), moved once a level: a
+//! node's median is selected among a copy of its coordinates on the split
+//! axis (the keys), then one pass writes each point to its side of the
+//! other buffer, where the children's points then are. No point moves
+//! twice a level, and no branch depends on the side, a coin toss around a
+//! median.
+//!
+//! Points and indices lie in separate arrays ([`Columns`]), so that the
+//! array that ends in leaf order is the kernel's coordinate array once
+//! each leaf's run is turned axis by axis ([`ByKeys::leaf`]), in place:
+//! no third copy of the points is made.
+//!
+//! Against selecting the points themselves (`select_nth_unstable`, which
+//! moves each several times), one thread pinned, best of 7 interleaved
+//! `kdray build-points`: 300k points at 8-D 35.7 -> 29.9 ms, 16-D 70.8 ->
+//! 45.6 ms, 1M `f64` points at 3-D 94.1 -> 88.7 ms. Tried: Hoare's two
+//! cursors swapping in place (8-D 18% fewer instructions, slower on the
+//! clock: its loops mispredicted); (coordinate, position) pairs selected
+//! and the points gathered by position (12% more instructions at 16-D:
+//! the gather reads out of order); a `u32` index array selected with ties
+//! broken by index (1.2-1.5x the build time, the extra compare
+//! mispredicted); both children's boxes taken in the moving pass,
+//! branch-free (1.8x the time at 8-D and 16-D: four masked
+//! compare-selects per coordinate instead of two); a quickselect of its
+//! own on the keys (median-of-three pivots, branch-free partitions, a
+//! branch-free count among the last 16 keys, to drop `std`'s final
+//! insertion sort): 8-D `kdray build-points` of 100k points 108.9M ->
+//! 129.5M instructions for 158k -> 140k mispredicts (callgrind).
+
+use super::in_place::leaf_node;
+use super::store::{bounds_of, coordinate_order, Store};
+use kdray_kernel::{PointNode, Scalar};
+
+/// Points and their input indices, side by side.
+pub(super) struct Columns<'a, const D: usize, S> {
+    /// The points.
+    pub(super) p: &'a mut [[S; D]],
+    /// The input index of each.
+    pub(super) index: &'a mut [u32],
+}
+
+impl<'a, const D: usize, S> Columns<'a, D, S> {
+    /// The columns split at `mid`.
+    fn split_at(self, mid: usize) -> [Columns<'a, D, S>; 2] {
+        let (p0, p1) = self.p.split_at_mut(mid);
+        let (i0, i1) = self.index.split_at_mut(mid);
+        [Columns { p: p0, index: i0 }, Columns { p: p1, index: i1 }]
+    }
+}
+
+/// A node's points: in `now`, with `spare` (the same places of the other
+/// buffer) for the partition to write into. `now_is_final` when `now`
+/// lies in the buffer the leaves' runs are read from.
+pub(super) struct ByKeys<'a, const D: usize, S> {
+    /// Where the node's points are.
+    pub(super) now: Columns<'a, D, S>,
+    /// The other buffer's places for them.
+    pub(super) spare: Columns<'a, D, S>,
+    /// Whether `now` is in the final buffer.
+    pub(super) now_is_final: bool,
+}
+
+/// Buffers a thread reuses: the keys selected, the indices of the ties at
+/// a median, a leaf's order and a copy of its points.
+#[derive(Default)]
+pub(super) struct KeyScratch<const D: usize, S> {
+    keys: Vec<S>,
+    ties: Vec<u32>,
+    order: Vec<u64>,
+    block: Vec<[S; D]>,
+}
+
+impl<const D: usize, S: Scalar> ByKeys<'_, D, S> {
+    /// Writes the points for which `below` holds to the front of `spare`,
+    /// in order, and the others to its back; returns how many are below.
+    /// `now` is left as it was.
+    fn split_into_spare(&mut self, below: impl Fn(&[S; D], u32) -> bool) -> usize {
+        let (mut lo, mut hi) = (0, self.now.p.len());
+        for (p, &i) in self.now.p.iter().zip(self.now.index.iter()) {
+            let b = below(p, i);
+            // `lo < hi` until the last point: each step fills one slot.
+            let at = if b { lo } else { hi - 1 };
+            self.spare.p[at] = *p;
+            self.spare.index[at] = i;
+            lo += usize::from(b);
+            hi -= usize::from(!b);
+        }
+        lo
+    }
+}
+
+impl<const D: usize, S: Scalar> Store<D, S> for ByKeys<'_, D, S> {
+    type Scratch = KeyScratch<D, S>;
+
+    fn len(&self) -> usize {
+        self.now.p.len()
+    }
+
+    fn bounds(&self) -> [[S; D]; 2] {
+        bounds_of(self.now.p)
+    }
+
+    fn partition(&mut self, a: usize, scratch: &mut KeyScratch<D, S>) -> (usize, S) {
+        let n = self.len();
+        let mid = n / 2;
+        let keys = &mut scratch.keys;
+        keys.clear();
+        keys.extend(self.now.p.iter().map(|p| p[a]));
+        let split = *keys.select_nth_unstable_by(mid, coordinate_order).1;
+        let mut below = self.split_into_spare(|p, _| p[a] <= split);
+        if below == n {
+            // The median is the largest coordinate: the points below it,
+            // then the `take` ties of lowest index, those below the
+            // index of rank `take` among the ties (indices are distinct).
+            let ties = &mut scratch.ties;
+            ties.clear();
+            ties.extend(
+                self.now
+                    .p
+                    .iter()
+                    .zip(self.now.index.iter())
+                    .filter(|(p, _)| p[a] == split)
+                    .map(|(_, &i)| i),
+            );
+            // At most `mid` points lie below the median, so `take < ties`.
+            let take = mid - (n - ties.len());
+            let limit = *ties.select_nth_unstable(take).1;
+            below = self.split_into_spare(|p, i| p[a] < split || (p[a] == split && i < limit));
+        }
+        std::mem::swap(&mut self.now, &mut self.spare);
+        self.now_is_final = !self.now_is_final;
+        (below, split)
+    }
+
+    fn children(self, mid: usize) -> [Self; 2] {
+        let [now_below, now_above] = self.now.split_at(mid);
+        let [spare_below, spare_above] = self.spare.split_at(mid);
+        let now_is_final = self.now_is_final;
+        [
+            ByKeys {
+                now: now_below,
+                spare: spare_below,
+                now_is_final,
+            },
+            ByKeys {
+                now: now_above,
+                spare: spare_above,
+                now_is_final,
+            },
+        ]
+    }
+
+    /// Writes the leaf's run to its places in the final buffer, sorted by
+    /// index, each point's coordinates axis by axis (`coords[a * count +
+    /// j]`, the kernel's leaf-major layout over the run's `count * D`
+    /// values).
+    fn leaf(self, offset: usize, scratch: &mut KeyScratch<D, S>) -> PointNode {
+        let count = self.len();
+        let order = &mut scratch.order;
+        order.clear();
+        order.extend(
+            (self.now.index.iter().enumerate()).map(|(j, &i)| (u64::from(i) << 32) | j as u64),
+        );
+        order.sort_unstable();
+        let (from, to): (&[[S; D]], Columns<'_, D, S>) = if self.now_is_final {
+            scratch.block.clear();
+            scratch.block.extend_from_slice(self.now.p);
+            (&scratch.block, self.now)
+        } else {
+            (self.now.p, self.spare)
+        };
+        let coords = to.p.as_flattened_mut();
+        for (j, (&o, index)) in order.iter().zip(to.index.iter_mut()).enumerate() {
+            *index = (o >> 32) as u32;
+            let p = &from[o as u32 as usize];
+            for (a, &x) in p.iter().enumerate() {
+                coords[a * count + j] = x;
+            }
+        }
+        leaf_node(offset, count)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A leaf of `n` points in shuffled index order, ended from either
+    /// buffer: the final buffer holds the run sorted by index, axis by
+    /// axis, whichever buffer the points were in.
+    #[test]
+    fn a_leaf_lands_sorted_and_axis_by_axis_in_the_final_buffer() {
+        let mut r = crate::rng::Rng::new(9);
+        for n in [1, 2, 5, 32, 77] {
+            let mut ids: Vec<u32> = (0..n as u32).map(|i| i * 3 + 1).collect();
+            for i in (1..n).rev() {
+                ids.swap(i, r.below(i + 1));
+            }
+            let point = |i: u32| [i as f32, -(i as f32), 0.5 * i as f32];
+            for now_is_final in [true, false] {
+                let mut held: Vec<[f32; 3]> = ids.iter().map(|&i| point(i)).collect();
+                let mut held_index = ids.clone();
+                let mut other = vec![[0.0; 3]; n];
+                let mut other_index = vec![0; n];
+                let (now, spare) = (
+                    Columns {
+                        p: &mut held,
+                        index: &mut held_index,
+                    },
+                    Columns {
+                        p: &mut other,
+                        index: &mut other_index,
+                    },
+                );
+                let run = ByKeys {
+                    now,
+                    spare,
+                    now_is_final,
+                };
+                let node = run.leaf(4, &mut KeyScratch::default());
+                assert_eq!(node, leaf_node(4, n));
+                let (coords, index) = if now_is_final {
+                    (held.as_flattened(), &held_index)
+                } else {
+                    (other.as_flattened(), &other_index)
+                };
+                let want: Vec<u32> = (0..n as u32).map(|i| i * 3 + 1).collect();
+                assert_eq!(index, &want);
+                for (j, &i) in want.iter().enumerate() {
+                    for a in 0..3 {
+                        assert_eq!(coords[a * n + j], point(i)[a], "n {n} j {j} axis {a}");
+                    }
+                }
+            }
+        }
+    }
+}

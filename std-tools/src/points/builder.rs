@@ -11,7 +11,7 @@
 //! rayon tasks and spliced into the depth-first layout afterwards; the
 //! output is the same for any thread count.
 
-use super::by_keys::{ByKeys, Columns};
+use super::by_keys::{Columns, FromInput};
 use super::in_place::{in_place, leaf_major, InPlace, Item};
 use super::store::Store;
 use kdray_kernel::{
@@ -165,21 +165,21 @@ pub fn build_points<const D: usize, S: Scalar>(
         })
     } else {
         let n = points.len();
-        let mut p = points.to_vec();
-        let mut indices: Vec<u32> = (0..n as u32).collect();
-        // Zeroed, so never written before the partitions write it.
+        // Zeroed, so never written before the partitions write them.
+        let mut p = vec![[S::ZERO; D]; n];
+        let mut indices = vec![0; n];
         let mut spare_p = vec![[S::ZERO; D]; n];
         let mut spare_indices = vec![0; n];
-        let run = ByKeys {
-            now: Columns {
+        let run = FromInput {
+            points,
+            first: Columns {
                 p: &mut p,
                 index: &mut indices,
             },
-            spare: Columns {
+            second: Columns {
                 p: &mut spare_p,
                 index: &mut spare_indices,
             },
-            now_is_final: true,
         };
         let tree = grow_parallel(run, 0, 0, &params);
         Ok(BuiltPoints {
@@ -351,15 +351,18 @@ fn splice<const D: usize, S: Scalar>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::points::by_keys::ByKeys;
 
-    fn lcg_points(n: usize, seed: u64) -> Vec<[f32; 3]> {
+    fn lcg_points<const D: usize>(n: usize, seed: u64) -> Vec<[f32; D]> {
         let mut rng = crate::rng::Rng::new(seed);
         (0..n).map(|_| std::array::from_fn(|_| rng.f32())).collect()
     }
 
-    #[test]
-    fn parallel_and_serial_builds_are_identical_and_valid() {
-        let pts = lcg_points(5000, 3);
+    /// Builds `n` points at D serially and in parallel: the same tree,
+    /// valid, every point where its index says (after the leaf-major
+    /// layout), whichever store the points went through.
+    fn parallel_and_serial_agree<const D: usize>(n: usize) {
+        let pts = lcg_points::<D>(n, 3);
         let serial = build_points(
             &pts,
             &PointParams {
@@ -378,10 +381,20 @@ mod tests {
         .unwrap();
         assert_eq!(serial, parallel);
         let tree = serial.view().unwrap();
-        assert_eq!(tree.len(), 5000);
-        // Every point is where its index says, after the leaf-major transpose.
+        assert_eq!(tree.len(), n);
         for (at, &i) in tree.indices().iter().enumerate() {
-            assert_eq!(tree.point(at), Some(pts[i as usize]));
+            assert_eq!(tree.point(at), Some(pts[i as usize]), "D {D} n {n}");
+        }
+    }
+
+    #[test]
+    fn parallel_and_serial_builds_are_identical_and_valid() {
+        // 3-D in place; 2-D and 8-D through their keys, the root read
+        // from the input (and, at 20 points, a root that is a leaf).
+        for n in [20, 5000] {
+            parallel_and_serial_agree::<3>(n);
+            parallel_and_serial_agree::<2>(n);
+            parallel_and_serial_agree::<8>(n);
         }
     }
 
@@ -480,7 +493,7 @@ mod tests {
 
     #[test]
     fn nan_points_are_rejected_by_index() {
-        let mut pts = lcg_points(10, 1);
+        let mut pts = lcg_points::<3>(10, 1);
         pts[7][1] = f32::NAN;
         let e = build_points(&pts, &PointParams::default()).unwrap_err();
         assert!(matches!(e, PointBuildError::NonFinite { point: 7, .. }));

@@ -51,6 +51,7 @@ pub(super) struct InPlace<'a, const D: usize, S>(pub(super) &'a mut [Item<D, S>]
 
 impl<const D: usize, S: Scalar> Store<D, S> for InPlace<'_, D, S> {
     type Scratch = ();
+    type Child = Self;
 
     fn len(&self) -> usize {
         self.0.len()

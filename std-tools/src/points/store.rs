@@ -38,8 +38,11 @@ pub(super) trait Store<const D: usize, S: Scalar>: Sized + Send {
     /// `mid`.
     fn partition(&mut self, a: usize, scratch: &mut Self::Scratch) -> (usize, S);
 
+    /// The store the children's points are in.
+    type Child: Store<D, S, Scratch = Self::Scratch>;
+
     /// The children's points after [`Store::partition`] returned `mid`.
-    fn children(self, mid: usize) -> [Self; 2];
+    fn children(self, mid: usize) -> [Self::Child; 2];
 
     /// Ends the node as a leaf at `offset` (its first point's place in
     /// leaf order): its points sorted by index, as the kernel's tie rule

@@ -177,7 +177,10 @@ proptest! {
         leaf_size in 1usize..80,
     ) {
         let params = PointParams { leaf_size, parallel_min: 500, ..Default::default() };
+        // Both builder stores: 3-D `f32` in place, 2-D `f32` and 8-D
+        // `f64` through their keys.
         check_all(&point_set::<3, f32>(kind, n, seed), &params, seed);
+        check_all(&point_set::<2, f32>(kind, n / 2, seed), &params, seed);
         check_all(&point_set::<8, f64>(kind, n / 3, seed), &params, seed);
     }
 }

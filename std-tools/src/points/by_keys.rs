@@ -1,8 +1,8 @@
 //! Points of all other sizes (2-D `f32`, and from 4-D `f32` and 2-D `f64`
-//! on), moved once a level: a
-//! node's median is selected among a copy of its coordinates on the split
-//! axis (the keys), then one pass writes each point to its side of the
-//! other buffer, where the children's points then are. No point moves
+//! on), moved once a level: a node's median is selected among a copy of
+//! its coordinates on the split axis (the keys), then one pass writes each
+//! point to its side of the other buffer, where the children's points then
+//! are. No point moves
 //! twice a level, and no branch depends on the side, a coin toss around a
 //! median.
 //!
@@ -31,8 +31,7 @@
 //! insertion sort): 8-D `kdray build-points` of 100k points 108.9M ->
 //! 129.5M instructions for 158k -> 140k mispredicts (callgrind).
 
-use super::in_place::leaf_node;
-use super::store::{bounds_of, coordinate_order, Store};
+use super::store::{bounds_of, coordinate_order, leaf_node, Store};
 use kdray_kernel::{PointNode, Scalar};
 
 /// Points and their input indices, side by side.

@@ -15,7 +15,7 @@
 //! moves a point fewer times only in the top levels, and each move of a
 //! 12-byte item costs more than quickselect's).
 
-use super::store::{bounds_of, coordinate_order, Located, Store};
+use super::store::{bounds_of, coordinate_order, leaf_node, Located, Store};
 use kdray_kernel::{PointNode, PointNodeKind, Scalar};
 
 /// A point and its input index, moved together by the selection.
@@ -108,12 +108,6 @@ impl<const D: usize, S: Scalar> Store<D, S> for InPlace<'_, D, S> {
         sort_by_index(self.0);
         leaf_node(offset, self.0.len())
     }
-}
-
-/// A leaf of `count` points at `offset` (the point count was checked
-/// against `MAX_POINTS`, so both fit).
-pub(super) fn leaf_node(offset: usize, count: usize) -> PointNode {
-    PointNode::leaf(offset as u32, count as u32).unwrap_or(PointNode::EMPTY_LEAF)
 }
 
 /// Sorts a leaf's items by index (all distinct).

@@ -1,5 +1,6 @@
 //! Where a node's points lie while the builder splits them ([`Store`]),
-//! and the tight bounds of a run of points ([`bounds_of`]).
+//! the tight bounds of a run of points ([`bounds_of`]) and the leaf node
+//! over a run ([`leaf_node`]).
 
 use kdray_kernel::{PointNode, Scalar};
 
@@ -50,6 +51,12 @@ pub(super) trait Store<const D: usize, S: Scalar>: Sized + Send {
     fn leaf(self, offset: usize, scratch: &mut Self::Scratch) -> PointNode;
 }
 
+/// A leaf of `count` points at `offset` (the point count was checked
+/// against `MAX_POINTS`, so both fit).
+pub(super) fn leaf_node(offset: usize, count: usize) -> PointNode {
+    PointNode::leaf(offset as u32, count as u32).unwrap_or(PointNode::EMPTY_LEAF)
+}
+
 /// A record that carries a point.
 pub(super) trait Located<const D: usize, S> {
     /// The point's coordinates.
@@ -75,7 +82,8 @@ pub(super) fn bounds_of<const D: usize, S: Scalar, T: Located<D, S>>(items: &[T]
     // the knn bench's 100k-point 2-D builds from 7.0-7.1 to 5.5 ms. From
     // 3-D on a point already gives the processor six or more independent
     // compare-selects, and four boxes no longer fit in its registers
-    // (3-D 4.9-5.0 -> 5.1-5.3 ms).
+    // (3-D 4.9-5.0 -> 5.1-5.3 ms); two boxes at 8-D `f32` read the same
+    // as one (7.1-7.2 against 7.2-7.3 ms on the duplicates).
     if D <= 2 {
         bounds_in::<4, D, S, T>(items)
     } else {

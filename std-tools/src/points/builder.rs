@@ -278,33 +278,38 @@ fn grow<const D: usize, S: Scalar, R: Store<D, S>>(
 }
 
 /// [`grow`] for a subtree rooted at 0, forking the two halves of large
-/// nodes onto rayon tasks.
+/// nodes onto rayon tasks. A node below `parallel_min` goes to [`grow`]
+/// before its box is taken, which [`grow`] takes (a serial build reads
+/// the root's points once less); only a leaf of `parallel_min` points or
+/// more, a pile of equal points, has its box taken twice.
 fn grow_parallel<const D: usize, S: Scalar, R: Store<D, S>>(
     mut run: R,
     offset: usize,
     depth: u32,
     params: &PointParams,
 ) -> Subtree<D, S> {
-    let b = run.bounds();
-    let axis = split_axis(run.len(), &b, depth, params);
     let mut scratch = R::Scratch::default();
-    let (Some(axis), true) = (axis, run.len() >= params.parallel_min) else {
-        let mut t = Subtree {
-            nodes: vec![PointNode::EMPTY_LEAF],
-            splits: vec![S::ZERO],
-            bounds: vec![b],
-            max_depth: 0,
-        };
-        grow(run, offset, depth, 0, &mut t, params, &mut scratch);
-        return t;
+    if run.len() >= params.parallel_min {
+        let b = run.bounds();
+        if let Some(axis) = split_axis(run.len(), &b, depth, params) {
+            let (mid, split) = run.partition(axis, &mut scratch);
+            let [below, above] = run.children(mid);
+            let (below, above) = rayon::join(
+                || grow_parallel(below, offset, depth + 1, params),
+                || grow_parallel(above, offset + mid, depth + 1, params),
+            );
+            return splice(interior(axis, 1), split, b, depth, below, above);
+        }
+    }
+    // The root's slots, which `grow` fills.
+    let mut t = Subtree {
+        nodes: vec![PointNode::EMPTY_LEAF],
+        splits: vec![S::ZERO],
+        bounds: vec![[[S::ZERO; D]; 2]],
+        max_depth: 0,
     };
-    let (mid, split) = run.partition(axis, &mut scratch);
-    let [below, above] = run.children(mid);
-    let (below, above) = rayon::join(
-        || grow_parallel(below, offset, depth + 1, params),
-        || grow_parallel(above, offset + mid, depth + 1, params),
-    );
-    splice(interior(axis, 1), split, b, depth, below, above)
+    grow(run, offset, depth, 0, &mut t, params, &mut scratch);
+    t
 }
 
 /// Joins two subtrees under a new root. Depth-first, the below subtree's

@@ -15,7 +15,7 @@
 //! moves a point fewer times only in the top levels, and each move of a
 //! 12-byte item costs more than quickselect's).
 
-use super::store::{bounds_of, coordinate_order, leaf_node, Located, Store};
+use super::store::{bounds_of, coordinate_order, leaf_node, put_leaf_major, Located, Store};
 use kdray_kernel::{PointNode, PointNodeKind, Scalar};
 
 /// A point and its input index, moved together by the selection.
@@ -155,9 +155,7 @@ pub(super) fn leaf_major<const D: usize, S: Scalar>(
             let (o, c) = (offset as usize, count as usize);
             let block = &mut coords[o * D..(o + c) * D];
             for (j, it) in items[o..o + c].iter().enumerate() {
-                for (a, &x) in it.p.iter().enumerate() {
-                    block[a * c + j] = x;
-                }
+                put_leaf_major(block, c, j, &it.p);
             }
         }
     }

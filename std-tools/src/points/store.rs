@@ -1,6 +1,7 @@
 //! Where a node's points lie while the builder splits them ([`Store`]),
-//! the tight bounds of a run of points ([`bounds_of`]) and the leaf node
-//! over a run ([`leaf_node`]).
+//! the tight bounds of a run of points ([`bounds_of`]), the leaf node
+//! over a run ([`leaf_node`]) and the run's layout in the kernel's
+//! coordinate array ([`put_leaf_major`]).
 
 use kdray_kernel::{PointNode, Scalar};
 
@@ -55,6 +56,22 @@ pub(super) trait Store<const D: usize, S: Scalar>: Sized + Send {
 /// against `MAX_POINTS`, so both fit).
 pub(super) fn leaf_node(offset: usize, count: usize) -> PointNode {
     PointNode::leaf(offset as u32, count as u32).unwrap_or(PointNode::EMPTY_LEAF)
+}
+
+/// Writes `p`, the `j`-th point of a leaf's run of `count`, into the
+/// run's block of the kernel's coordinate array: `count * D` values axis
+/// by axis (`block[a * count + j]`, the leaf-major layout of
+/// `kdray_kernel::PointTreeN::coords`).
+#[inline(always)]
+pub(super) fn put_leaf_major<const D: usize, S: Copy>(
+    block: &mut [S],
+    count: usize,
+    j: usize,
+    p: &[S; D],
+) {
+    for (a, &x) in p.iter().enumerate() {
+        block[a * count + j] = x;
+    }
 }
 
 /// A record that carries a point.

@@ -253,3 +253,55 @@ fn slice_entry_points_match_single_rays() {
         }
     }
 }
+
+/// A large batch of scattered shadow rays is traced in the Morton order
+/// of its origins (`Order::Auto`) and answers as in its own order, each
+/// answer in its ray's slot, at every width; camera-like rays (one
+/// origin) and closest hits keep their order.
+#[test]
+fn batches_sorted_by_origin_answer_in_their_own_order() {
+    use kdray::tools::trace::{trace_into, Order, Query};
+    let mut rng = Rng::new(6);
+    let tris = scene(&mut rng, 2000, false);
+    let built = build(&tris, BuilderKind::default(), &BuildParams::default());
+    let blob = write_triangle_tree(&built.unwrap(), &tris).unwrap();
+    let tree = blob.tree().unwrap();
+    let light = [30.0, 40.0, 20.0];
+    let shadow: Vec<Ray> = (0..20_000)
+        .map(|_| {
+            let o: [f32; 3] = std::array::from_fn(|_| rng.f32() * 10.0);
+            Ray {
+                origin: o,
+                tmin: 1e-4,
+                dir: std::array::from_fn(|a| light[a] - o[a]),
+                tmax: 1.0,
+            }
+        })
+        .collect();
+    let fan: Vec<Ray> = shadow
+        .iter()
+        .map(|r| Ray {
+            origin: [5.0; 3],
+            ..*r
+        })
+        .collect();
+    assert!(Order::Auto.sorts(&tree, &shadow, Query::Any));
+    assert!(!Order::Given.sorts(&tree, &shadow, Query::Any));
+    assert!(!Order::Auto.sorts(&tree, &shadow, Query::Closest));
+    assert!(!Order::Auto.sorts(&tree, &fan, Query::Any));
+    assert!(!Order::Auto.sorts(&tree, &shadow[..10_000], Query::Any));
+    let occluded: Vec<[u32; 4]> = shadow
+        .iter()
+        .map(|r| Hit::occlusion(tree.any_hit(r)).bits())
+        .collect();
+    let n = shadow.iter().filter(|r| tree.any_hit(r)).count();
+    assert!(n > 2000 && n < 18_000, "{n} of 20,000 occluded");
+    for width in [PacketWidth::One, PacketWidth::Eight] {
+        for order in [Order::Auto, Order::Given] {
+            let mut hits = vec![Hit::MISS; shadow.len()];
+            trace_into(&tree, &shadow, &mut hits, Query::Any, width, order);
+            let got: Vec<[u32; 4]> = hits.iter().map(Hit::bits).collect();
+            assert!(got == occluded, "{width:?} {order:?}");
+        }
+    }
+}

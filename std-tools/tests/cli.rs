@@ -176,6 +176,50 @@ fn trace_packets_match_single_rays() {
     assert!(stderr(&o).contains("1, 4, 8 or 16"), "{}", stderr(&o));
 }
 
+/// A large batch of scattered shadow rays is traced in the Morton order
+/// of its origins (`--order auto`, the default) with the hits in the
+/// file's order: the same file as `--order given`.
+#[test]
+fn trace_sorts_scattered_shadow_rays_and_answers_in_file_order() {
+    let obj = write(&tmp("so.obj"), QUAD_OBJ);
+    let tree = tmp("so.kdt").display().to_string();
+    assert!(kdray(&["build", &obj, "-o", &tree]).status.success());
+    // 20,000 rays from scattered origins towards a light above the quad.
+    let mut x = 12345u32;
+    let mut next = || {
+        x ^= x << 13;
+        x ^= x >> 17;
+        x ^= x << 5;
+        x as f32 / u32::MAX as f32 * 3.0 - 1.0
+    };
+    let rays: Vec<[f32; 8]> = (0..20_000)
+        .map(|_| {
+            let o = [next(), next(), next() * 0.5];
+            let d = [0.3 - o[0], 0.4 - o[1], 5.0 - o[2]];
+            [o[0], o[1], o[2], 1e-4, d[0], d[1], d[2], 1.0]
+        })
+        .collect();
+    let rays = write(&tmp("so.rays"), &ray_bytes(&rays));
+    let mut files = Vec::new();
+    for order in ["auto", "given"] {
+        let hits = tmp(&format!("so-{order}.hits")).display().to_string();
+        let o = kdray(&[
+            "trace", &tree, &rays, "-o", &hits, "--any-hit", "--json", "--order", order,
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let how = if order == "auto" { "morton" } else { "given" };
+        assert!(stdout(&o).contains(&format!("\"order\": \"{how}\"")), "{}", stdout(&o));
+        files.push(std::fs::read(&hits).unwrap());
+    }
+    assert!(files[0] == files[1], "--order auto and given differ");
+    let occluded = files[0].chunks(16).filter(|h| h[4..8] != [0xFF; 4]).count();
+    assert!(occluded > 500 && occluded < 19_000, "{occluded} occluded");
+    let out = tmp("so-bad.hits").display().to_string();
+    let o = kdray(&["trace", &tree, &rays, "-o", &out, "--order", "random"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("auto or given"), "{}", stderr(&o));
+}
+
 #[test]
 fn bad_inputs_get_clear_errors() {
     let obj = write(&tmp("ok.obj"), QUAD_OBJ);

@@ -12,7 +12,7 @@ use kdray_tools::camera::Camera;
 use kdray_tools::render::{render, render_heatmap, RenderParams, TreeTracer};
 use kdray_tools::scene::teapot_in_stadium;
 use kdray_tools::stats::{tree_stats, CostModel};
-use kdray_tools::trace::{trace_into, trace_serial, Query};
+use kdray_tools::trace::{trace_into, trace_serial, Order, Query};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -67,7 +67,10 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let one = t.elapsed().as_secs_f64();
     let pool = thread_pool(None)?;
     let t = Instant::now();
-    pool.install(|| trace_into(&tree, &rays, &mut hits, Query::Closest, PacketWidth::One));
+    pool.install(|| {
+        let (q, w) = (Query::Closest, PacketWidth::One);
+        trace_into(&tree, &rays, &mut hits, q, w, Order::Auto);
+    });
     let all = t.elapsed().as_secs_f64();
     let hit = hits.iter().filter(|h| h.is_hit()).count();
     say!(

@@ -383,6 +383,18 @@ impl<'a> TriangleTree<'a> {
 }
 
 impl TriangleTree<'_> {
+    /// Whether consecutive rays of `rays` start far apart in this tree's
+    /// scene: the test the slice entry points make on each block of 256
+    /// rays before choosing a walk (random rays and shadow rays from
+    /// random surface points are scattered; camera rays and rays in pixel
+    /// order are not). A caller holding a large batch of scattered rays
+    /// gains by tracing them in the order of their origins
+    /// (`kdray_tools::trace` does).
+    #[must_use]
+    pub fn rays_scattered(&self, rays: &[Ray]) -> bool {
+        scattered(rays, &self.bounds)
+    }
+
     /// The bytes a walk reads from: nodes, primitive indices, triangles.
     fn data_bytes(&self) -> usize {
         core::mem::size_of_val(self.nodes)

@@ -57,7 +57,7 @@ const REORDER_MIN: usize = 1 << 14;
 impl Order {
     /// Whether a batch of `rays` for `query` is traced in the Morton order
     /// of its origins: with [`Order::Auto`], an any-hit batch of at least
-    /// [`REORDER_MIN`] rays, scattered ([`TriangleTree::rays_scattered`])
+    /// 16,384 rays, scattered ([`TriangleTree::rays_scattered`])
     /// in most of eight blocks of 256 taken across it. Closest-hit batches
     /// keep their order: their scattered rays gained nothing measurable
     /// (random rays of `matrix.sh`, one core: bunny 0.98x, sponza 1.07x,

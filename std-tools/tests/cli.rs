@@ -204,11 +204,23 @@ fn trace_sorts_scattered_shadow_rays_and_answers_in_file_order() {
     for order in ["auto", "given"] {
         let hits = tmp(&format!("so-{order}.hits")).display().to_string();
         let o = kdray(&[
-            "trace", &tree, &rays, "-o", &hits, "--any-hit", "--json", "--order", order,
+            "trace",
+            &tree,
+            &rays,
+            "-o",
+            &hits,
+            "--any-hit",
+            "--json",
+            "--order",
+            order,
         ]);
         assert!(o.status.success(), "{}", stderr(&o));
         let how = if order == "auto" { "morton" } else { "given" };
-        assert!(stdout(&o).contains(&format!("\"order\": \"{how}\"")), "{}", stdout(&o));
+        assert!(
+            stdout(&o).contains(&format!("\"order\": \"{how}\"")),
+            "{}",
+            stdout(&o)
+        );
         files.push(std::fs::read(&hits).unwrap());
     }
     assert!(files[0] == files[1], "--order auto and given differ");

@@ -91,12 +91,21 @@ pub fn trace_into(
     order: Order,
 ) {
     if order.sorts(tree, rays, query) {
+        // Each task gathers its chunk of rays in order (a few KiB that stay
+        // in cache) and traces them; the answers go back to their rays'
+        // slots after. (Gathering the whole batch first took as long, and
+        // a copy of it: 32 MB a million rays.)
         let order = morton::origin_order(rays);
-        let sorted: Vec<Ray> = order.par_iter().map(|&i| rays[i as usize]).collect();
-        let mut out = vec![Hit::MISS; sorted.len()];
-        trace_chunks(tree, &sorted, &mut out, query, width);
+        let mut out = vec![Hit::MISS; order.len()];
+        order
+            .par_chunks(CHUNK)
+            .zip(out.par_chunks_mut(CHUNK))
+            .for_each(|(o, h)| {
+                let chunk: Vec<Ray> = o.iter().map(|&i| rays[morton::index(i)]).collect();
+                trace_serial(tree, &chunk, h, query, width);
+            });
         for (&i, h) in order.iter().zip(out) {
-            if let Some(slot) = hits.get_mut(i as usize) {
+            if let Some(slot) = hits.get_mut(morton::index(i)) {
                 *slot = h;
             }
         }

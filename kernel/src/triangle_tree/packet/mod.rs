@@ -418,9 +418,10 @@ const IN_TURNS: bool = cfg!(target_arch = "x86_64");
 /// measured. A tree that stays in cache has no misses for turns to
 /// overlap, only their hand-over to pay: the teapot (455 KB) ran random
 /// rays at 0.71x in turns, where the bunny (4.7 MB) ran them at 1.08-1.45x
-/// (one core, interleaved, plain build). Sponza (23 MB) still loses on
-/// random rays (0.85-0.89x): they end after few steps, in the top of the
-/// tree, which stays cached. Under `cfg(fuzzing)` every tree qualifies, so the fuzz
+/// (one core, interleaved, plain build). Sponza (6.0 MB) still loses on
+/// random rays (0.76-0.94x against no turns, three interleaved rounds):
+/// they end after 8.3 steps, in the top of the tree, which stays cached;
+/// the bunny's take 11.3 and gain 1.05-1.14x. Under `cfg(fuzzing)` every tree qualifies, so the fuzz
 /// targets' small trees reach the walk in turns.
 const TURNS_MIN_BYTES: usize = if cfg!(fuzzing) { 0 } else { 1 << 20 };
 

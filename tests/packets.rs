@@ -303,5 +303,13 @@ fn batches_sorted_by_origin_answer_in_their_own_order() {
             let got: Vec<[u32; 4]> = hits.iter().map(Hit::bits).collect();
             assert!(got == occluded, "{width:?} {order:?}");
         }
+        // The kernel's own entry point, with room for the sort and without.
+        let want: Vec<bool> = shadow.iter().map(|r| tree.any_hit(r)).collect();
+        for room in [2 * shadow.len(), 2 * shadow.len() - 1, 0] {
+            let mut scratch = vec![0u64; room];
+            let mut got = vec![false; shadow.len()];
+            tree.any_hits_by_origin(width, &shadow, &mut got, &mut scratch);
+            assert!(got == want, "{width:?} scratch {room}");
+        }
     }
 }

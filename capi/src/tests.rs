@@ -253,6 +253,25 @@ fn single_packet_and_stream_answers_are_the_kernels() {
             KdrayStatus::Ok
         );
     }
+    // In the Morton order of the origins (room for the sort, and none):
+    // the same answers, each in its ray's slot.
+    for room in [2 * rays.len(), 1] {
+        let mut scratch = std::vec![0u64; room];
+        let mut sorted = std::vec![7i32; rays.len()];
+        // SAFETY: live slices of their lengths.
+        let s = unsafe {
+            kdray_any_hits_by_origin(
+                &h,
+                rays.as_ptr(),
+                sorted.as_mut_ptr(),
+                rays.len(),
+                scratch.as_mut_ptr(),
+                room,
+            )
+        };
+        assert_eq!(s, KdrayStatus::Ok);
+        assert_eq!(sorted, occluded, "scratch {room}");
+    }
     let mut some = 0;
     for (i, r) in rays.iter().enumerate() {
         let ray = Ray::from(*r);

@@ -182,6 +182,11 @@ static void check_rays(const uint8_t *blob, size_t len, const char *out) {
   CHECK(memcmp(stream, closest, sizeof stream) == 0, "stream hits equal single-ray hits");
   CHECK(kdray_any_hits(&tree, rays, stream_occluded, RAYS) == KDRAY_STATUS_OK, "stream");
   CHECK(memcmp(stream_occluded, occluded, sizeof occluded) == 0, "stream occlusion equals single rays'");
+  static uint64_t scratch[2 * RAYS];
+  memset(stream_occluded, 0x55, sizeof stream_occluded);
+  CHECK(kdray_any_hits_by_origin(&tree, rays, stream_occluded, RAYS, scratch, 2 * RAYS) == KDRAY_STATUS_OK,
+        "by origin");
+  CHECK(memcmp(stream_occluded, occluded, sizeof occluded) == 0, "occlusion by origin equals single rays'");
   CHECK_PACKETS(4);
   CHECK_PACKETS(8);
   CHECK_PACKETS(16);

@@ -118,7 +118,9 @@ pub use blob::{
     MAX_DEPTH,
 };
 pub use cpu::{isa, set_isa, Isa, IsaUnsupported};
-pub use geometry::{ray_is_valid, Axis, Bounds, Hit, Ray, MISS, OCCLUDED};
+pub use geometry::{
+    item_index, ray_is_valid, sort_items, Axis, Bounds, Hit, MortonGrid, Ray, MISS, OCCLUDED,
+};
 /// The `glam` whose `Vec3` the ray constructors take: use it (or this
 /// version of the crate) so the types match.
 pub use glam;

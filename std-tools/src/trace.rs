@@ -20,7 +20,7 @@
 
 use crate::morton;
 pub use kdray_kernel::PacketWidth;
-use kdray_kernel::{Hit, Ray, TriangleTree};
+use kdray_kernel::{item_index, Hit, Ray, TriangleTree};
 use rayon::prelude::*;
 
 /// Which query to run per ray.
@@ -101,11 +101,11 @@ pub fn trace_into(
             .par_chunks(CHUNK)
             .zip(out.par_chunks_mut(CHUNK))
             .for_each(|(o, h)| {
-                let chunk: Vec<Ray> = o.iter().map(|&i| rays[morton::index(i)]).collect();
+                let chunk: Vec<Ray> = o.iter().map(|&i| rays[item_index(i)]).collect();
                 trace_serial(tree, &chunk, h, query, width);
             });
         for (&i, h) in order.iter().zip(out) {
-            if let Some(slot) = hits.get_mut(morton::index(i)) {
+            if let Some(slot) = hits.get_mut(item_index(i)) {
                 *slot = h;
             }
         }

@@ -285,9 +285,15 @@ fn packet_lanes<'t, const N: usize>(
     tree.closest_hits_with(PacketWidth::One, &rays, &mut hits);
     let mut occ = vec![false; N];
     tree.any_hits_with(PacketWidth::One, &rays, &mut occ);
-    for ((ray, h), o) in rays.iter().zip(&hits).zip(&occ) {
+    // And in the Morton order of their origins (hostile origins: NaN,
+    // infinite, far apart), answers in their slots.
+    let mut by_origin = vec![false; N];
+    let mut scratch = vec![0u64; 2 * N];
+    tree.any_hits_by_origin(PacketWidth::Eight, &rays, &mut by_origin, &mut scratch);
+    for (((ray, h), o), b) in rays.iter().zip(&hits).zip(&occ).zip(&by_origin) {
         assert_eq!(h.bits(), tree.closest_hit(ray).bits(), "slice: {ray:?}");
         assert_eq!(*o, tree.any_hit(ray), "slice any: {ray:?}");
+        assert_eq!(*b, *o, "by origin: {ray:?}");
     }
 }
 

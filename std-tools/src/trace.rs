@@ -15,8 +15,8 @@
 //! batch's order each walk waits on memory), and the slice entry points'
 //! occluder cache answers many of them. The answers are the same: each
 //! ray's walk does not depend on the others. `matrix.sh`'s 1M shadow
-//! rays, one core, the sort (~40 ms) included: single rays 1.7-2.5x,
-//! 8-wide packets 1.8-4.9x (bunny, sponza, teapot).
+//! rays, one core, the sort (~40 ms) included: single rays 1.9-2.6x,
+//! 8-wide packets 2.2-5.4x (bunny, sponza, teapot).
 
 use crate::morton;
 pub use kdray_kernel::PacketWidth;

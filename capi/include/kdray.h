@@ -626,7 +626,7 @@ KdrayStatus kdray_any_hits(const KdrayTriangleTree *tree,
 // `kdray_any_hits` over a large batch of scattered shadow rays (origins
 // far apart from one ray to the next, as from random surface points),
 // traced in the Morton order of their origins: the same answers, each in
-// its ray's slot, 1.9-5.4x faster on a million such rays (the sort
+// its ray's slot, 1.7-4.2x faster on a million such rays (the sort
 // included). `scratch` is caller memory for the sort: `scratch_count`
 // 64-bit words, `2 * count` of them; with fewer the batch is traced in
 // its own order. Rays in pixel order gain nothing: use `kdray_any_hits`.

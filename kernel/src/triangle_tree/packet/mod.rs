@@ -352,10 +352,10 @@ impl<'a> TriangleTree<'a> {
     /// For a large batch of scattered shadow rays (origins far apart from
     /// one ray to the next, [`TriangleTree::rays_scattered`]), whose walks
     /// then share cells, nodes and triangles that stay in cache: on a
-    /// million shadow rays from random surface points, one core, 1.9-2.6x
-    /// the rays a second single and 2.2-5.4x 8-wide, the sort included
-    /// (bunny, sponza, teapot; measured through `kdray trace`, which sorts
-    /// with the same keys; docs/results.md). `scratch` holds two `u64`
+    /// million shadow rays from random surface points (`matrix.sh`'s),
+    /// one core, against `any_hits_with` over the batch in its order,
+    /// 1.7-2.4x the rays a second single and 3.2-4.2x 8-wide, the sort
+    /// included (bunny and teapot; docs/results.md). `scratch` holds two `u64`
     /// a ray (2 `rays.len()`); with less, or past `u32::MAX` rays, the
     /// batch is traced in its own order. Rays are gathered 256 at a time
     /// on the stack (8 KiB).

@@ -12,13 +12,11 @@ use rayon::prelude::*;
 /// of all finite origins, as the kernel's items (read each with
 /// [`item_index`]): rays of equal key keep their order, rays with a
 /// non-finite origin come last. ~20 ms for a batch of 1M rays on one core.
+/// `None` past `u32::MAX` rays, whose indices an item cannot hold.
 #[must_use]
-pub fn origin_order(rays: &[Ray]) -> Vec<u64> {
+pub fn origin_order(rays: &[Ray]) -> Option<Vec<u64>> {
+    u32::try_from(rays.len()).ok()?;
     let grid = MortonGrid::over_origins(rays);
-    // Indices fit the item's 32 bits: a larger batch keeps its order.
-    if u32::try_from(rays.len()).is_err() {
-        return (0..rays.len() as u64).collect();
-    }
     let mut items: Vec<u64> = rays
         .par_iter()
         .enumerate()
@@ -27,14 +25,16 @@ pub fn origin_order(rays: &[Ray]) -> Vec<u64> {
     let mut spare = vec![0u64; items.len()];
     // `spare` is as long: the sort always runs.
     sort_items(&mut items, &mut spare);
-    items
+    Some(items)
 }
 
-/// Sorts `rays` by the Morton code of their origins ([`origin_order`]).
+/// Sorts `rays` by the Morton code of their origins ([`origin_order`]);
+/// past `u32::MAX` rays they keep their order.
 pub fn sort_by_origin(rays: &mut [Ray]) {
-    let order = origin_order(rays);
-    let sorted: Vec<Ray> = order.iter().map(|&i| rays[item_index(i)]).collect();
-    rays.copy_from_slice(&sorted);
+    if let Some(order) = origin_order(rays) {
+        let sorted: Vec<Ray> = order.iter().map(|&i| rays[item_index(i)]).collect();
+        rays.copy_from_slice(&sorted);
+    }
 }
 
 #[cfg(test)]
@@ -53,7 +53,11 @@ mod tests {
             at(0.0, 0.0),
         ];
         rays[5].tmax = 2.0;
-        let order: Vec<usize> = origin_order(&rays).into_iter().map(item_index).collect();
+        let order: Vec<usize> = origin_order(&rays)
+            .unwrap()
+            .into_iter()
+            .map(item_index)
+            .collect();
         // Equal keys keep their order: ray 2 before ray 5.
         assert_eq!(order, [2, 5, 4, 3, 0, 1]);
         sort_by_origin(&mut rays);

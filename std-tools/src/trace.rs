@@ -57,7 +57,7 @@ const REORDER_MIN: usize = 1 << 14;
 impl Order {
     /// Whether a batch of `rays` for `query` is traced in the Morton order
     /// of its origins: with [`Order::Auto`], an any-hit batch of at least
-    /// 16,384 rays, scattered ([`TriangleTree::rays_scattered`])
+    /// 16,384 rays (and at most `u32::MAX`), scattered ([`TriangleTree::rays_scattered`])
     /// in most of eight blocks of 256 taken across it. Closest-hit batches
     /// keep their order: their scattered rays gained nothing measurable
     /// (random rays of `matrix.sh`, one core: bunny 0.98x, sponza 1.07x,
@@ -65,7 +65,8 @@ impl Order {
     /// instead.
     #[must_use]
     pub fn sorts(self, tree: &TriangleTree<'_>, rays: &[Ray], query: Query) -> bool {
-        if self != Order::Auto || query != Query::Any || rays.len() < REORDER_MIN {
+        let batch = REORDER_MIN..=u32::MAX as usize;
+        if self != Order::Auto || query != Query::Any || !batch.contains(&rays.len()) {
             return false;
         }
         let blocks = 8;
@@ -90,12 +91,12 @@ pub fn trace_into(
     width: PacketWidth,
     order: Order,
 ) {
-    if order.sorts(tree, rays, query) {
+    let sorted = order.sorts(tree, rays, query);
+    if let Some(order) = sorted.then(|| morton::origin_order(rays)).flatten() {
         // Each task gathers its chunk of rays in order (a few KiB that stay
         // in cache) and traces them; the answers go back to their rays'
         // slots after. (Gathering the whole batch first took as long, and
         // a copy of it: 32 MB a million rays.)
-        let order = morton::origin_order(rays);
         let mut out = vec![Hit::MISS; order.len()];
         order
             .par_chunks(CHUNK)

@@ -158,7 +158,7 @@ mod tests {
 
     #[test]
     fn the_radix_sort_orders_keys_stably() {
-        // Keys in every digit of the three passes, many equal ones.
+        // Keys in every digit of the four passes, many equal ones.
         let mut rng = crate::test_rng::Rng(0x2545_F491_4F6C_DD1D);
         let items: [u64; 3000] = core::array::from_fn(|i| {
             let key = (rng.f() * (1u32 << 31) as f32) as u64 & 0x7fff_f000;

@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 use kdray::kernel::{
-    Hit, Packet, Packet16, Packet4, Packet8, PacketWidth, Ray, Triangle, TriangleTree,
+    Hit, Packet, Packet16, Packet4, Packet8, PacketWidth, Ray, Triangle, TriangleTree, MISS,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
@@ -257,9 +257,11 @@ fn slice_entry_points_match_single_rays() {
 /// A large batch of scattered shadow rays is traced in the Morton order
 /// of its origins (`Order::Auto`) and answers as in its own order, each
 /// answer in its ray's slot, at every width; camera-like rays (one
-/// origin) and closest hits keep their order.
+/// origin) and closest hits keep their order, unless `Order::Morton`
+/// sorts them (closest hits by origin and direction), with the same
+/// answers.
 #[test]
-fn batches_sorted_by_origin_answer_in_their_own_order() {
+fn batches_sorted_in_morton_order_answer_in_their_own_order() {
     use kdray::tools::trace::{trace_into, Order, Query};
     let mut rng = Rng::new(6);
     let tris = scene(&mut rng, 2000, false);
@@ -296,11 +298,14 @@ fn batches_sorted_by_origin_answer_in_their_own_order() {
         .collect();
     let n = shadow.iter().filter(|r| tree.any_hit(r)).count();
     assert!(n > 2000 && n < 18_000, "{n} of 20,000 occluded");
+    let traced = |rays: &[Ray], query: Query, width: PacketWidth, order: Order| {
+        let mut hits = vec![Hit::MISS; rays.len()];
+        trace_into(&tree, rays, &mut hits, query, width, order);
+        hits.iter().map(Hit::bits).collect::<Vec<[u32; 4]>>()
+    };
     for width in [PacketWidth::One, PacketWidth::Eight] {
-        for order in [Order::Auto, Order::Given] {
-            let mut hits = vec![Hit::MISS; shadow.len()];
-            trace_into(&tree, &shadow, &mut hits, Query::Any, width, order);
-            let got: Vec<[u32; 4]> = hits.iter().map(Hit::bits).collect();
+        for order in [Order::Auto, Order::Given, Order::Morton] {
+            let got = traced(&shadow, Query::Any, width, order);
             assert!(got == occluded, "{width:?} {order:?}");
         }
         // The kernel's own entry point, with room for the sort and without.
@@ -310,6 +315,24 @@ fn batches_sorted_by_origin_answer_in_their_own_order() {
             let mut got = vec![false; shadow.len()];
             tree.any_hits_by_origin(width, &shadow, &mut got, &mut scratch);
             assert!(got == want, "{width:?} scratch {room}");
+        }
+    }
+    // Closest hits, scattered in all directions:
+    let random: Vec<Ray> = (0..20_000).map(|_| random_ray(&mut rng)).collect();
+    // `Auto` sorts only any-hit batches; `Morton` any batch (closest
+    // hits by origin and direction).
+    assert!(!Order::Auto.sorts(&tree, &random, Query::Closest));
+    assert!(Order::Auto.sorts(&tree, &random, Query::Any));
+    assert!(Order::Morton.sorts(&tree, &random, Query::Closest));
+    assert!(Order::Morton.sorts(&tree, &random[..10], Query::Any));
+    assert!(!Order::Given.sorts(&tree, &random, Query::Closest));
+    let want: Vec<[u32; 4]> = random.iter().map(|r| tree.closest_hit(r).bits()).collect();
+    let hit = want.iter().filter(|h| h[1] != MISS).count();
+    assert!(hit > 2000 && hit < 19_000, "{hit} of 20,000 hit");
+    for width in [PacketWidth::One, PacketWidth::Eight] {
+        for order in [Order::Morton, Order::Given] {
+            let got = traced(&random, Query::Closest, width, order);
+            assert!(got == want, "{width:?} {order:?}");
         }
     }
 }

@@ -119,7 +119,8 @@ pub use blob::{
 };
 pub use cpu::{isa, set_isa, Isa, IsaUnsupported};
 pub use geometry::{
-    item_index, ray_is_valid, sort_items, Axis, Bounds, Hit, MortonGrid, Ray, MISS, OCCLUDED,
+    item_index, ray_is_valid, sort_items, Axis, Bounds, Hit, MortonGrid, Ray, RayKey, MISS,
+    OCCLUDED,
 };
 /// The `glam` whose `Vec3` the ray constructors take: use it (or this
 /// version of the crate) so the types match.

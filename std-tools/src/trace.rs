@@ -16,11 +16,12 @@
 //! occluder cache answers many of them. The answers are the same: each
 //! ray's walk does not depend on the others. `matrix.sh`'s 1M shadow
 //! rays, one core, the sort (~40 ms) included: single rays 1.9-2.6x,
-//! 8-wide packets 2.2-5.4x (bunny, sponza, teapot).
+//! 8-wide packets 2.2-5.4x (bunny, sponza, teapot). [`Order::Morton`]
+//! sorts any batch, closest-hit rays by origin and direction.
 
 use crate::morton;
 pub use kdray_kernel::PacketWidth;
-use kdray_kernel::{item_index, Hit, Ray, TriangleTree};
+use kdray_kernel::{item_index, Hit, Ray, RayKey, TriangleTree};
 use rayon::prelude::*;
 
 /// Which query to run per ray.
@@ -48,6 +49,9 @@ pub enum Order {
     Auto,
     /// The batch's own order.
     Given,
+    /// Morton order ([`Order::key`]) whatever the batch (of at most
+    /// `u32::MAX` rays): for a caller who knows its rays are scattered.
+    Morton,
 }
 
 /// Batches of fewer rays are traced in their order: the cells their walks
@@ -55,16 +59,23 @@ pub enum Order {
 const REORDER_MIN: usize = 1 << 14;
 
 impl Order {
-    /// Whether a batch of `rays` for `query` is traced in the Morton order
-    /// of its origins: with [`Order::Auto`], an any-hit batch of at least
+    /// Whether a batch of `rays` for `query` is traced in Morton order
+    /// ([`Order::key`]): with [`Order::Morton`], any batch of at most
+    /// `u32::MAX` rays; with [`Order::Auto`], an any-hit batch of at least
     /// 16,384 rays (and at most `u32::MAX`), scattered ([`TriangleTree::rays_scattered`])
-    /// in most of eight blocks of 256 taken across it. Closest-hit batches
-    /// keep their order: their scattered rays gained nothing measurable
-    /// (random rays of `matrix.sh`, one core: bunny 0.98x, sponza 1.07x,
-    /// teapot 0.83x, the sort included); the kernel walks those in turns
-    /// instead.
+    /// in most of eight blocks of 256 taken across it. `Auto` keeps
+    /// closest-hit batches in their order: sorted by origin and direction,
+    /// `matrix.sh`'s random rays traced 1.4x faster over the bunny and
+    /// 1.75x over sponza (the sorted file traced as given), but sorting
+    /// them took about as long as it saved (one core, interleaved, 1M
+    /// rays: bunny 0.74-1.13x, sponza 0.97-1.27x, the sort, the gather of
+    /// each chunk and the scatter of the hits included); the kernel walks
+    /// them in turns instead.
     #[must_use]
     pub fn sorts(self, tree: &TriangleTree<'_>, rays: &[Ray], query: Query) -> bool {
+        if self == Order::Morton {
+            return u32::try_from(rays.len()).is_ok();
+        }
         let batch = REORDER_MIN..=u32::MAX as usize;
         if self != Order::Auto || query != Query::Any || !batch.contains(&rays.len()) {
             return false;
@@ -77,6 +88,21 @@ impl Order {
             })
             .count();
         scattered > blocks / 2
+    }
+
+    /// The key a sorted batch for `query` is ordered by: shadow rays
+    /// (any hit) by their origins alone, since their directions follow
+    /// from their origins (towards the light); closest-hit rays (bounce
+    /// and random rays, in all directions from nearby points) by origin
+    /// and direction. Crossed over, both lose (files sorted offline,
+    /// traced as given, one core): random rays by origin alone 5-12%
+    /// slower, shadow rays by origin and direction ~25% slower.
+    #[must_use]
+    pub fn key(query: Query) -> RayKey {
+        match query {
+            Query::Closest => RayKey::OriginDirection,
+            Query::Any => RayKey::Origin,
+        }
     }
 }
 
@@ -92,7 +118,10 @@ pub fn trace_into(
     order: Order,
 ) {
     let sorted = order.sorts(tree, rays, query);
-    if let Some(order) = sorted.then(|| morton::origin_order(rays)).flatten() {
+    if let Some(order) = sorted
+        .then(|| morton::ray_order(rays, Order::key(query)))
+        .flatten()
+    {
         // Each task gathers its chunk of rays in order (a few KiB that stay
         // in cache) and traces them; the answers go back to their rays'
         // slots after. (Gathering the whole batch first took as long, and

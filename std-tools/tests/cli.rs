@@ -226,10 +226,30 @@ fn trace_sorts_scattered_shadow_rays_and_answers_in_file_order() {
     assert!(files[0] == files[1], "--order auto and given differ");
     let occluded = files[0].chunks(16).filter(|h| h[4..8] != [0xFF; 4]).count();
     assert!(occluded > 500 && occluded < 19_000, "{occluded} occluded");
+    // Closest hits: `auto` keeps the order of a tree this small (it stays
+    // in cache), `morton` sorts by origin and direction; the same hits.
+    let mut files = Vec::new();
+    for (order, how) in [("auto", "given"), ("morton", "morton"), ("given", "given")] {
+        let hits = tmp(&format!("so-closest-{order}.hits"))
+            .display()
+            .to_string();
+        let o = kdray(&["trace", &tree, &rays, "-o", &hits, "--order", order]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let sorted = stdout(&o).contains("in the Morton order of their origins and directions");
+        assert_eq!(sorted, how == "morton", "{}", stdout(&o));
+        files.push(std::fs::read(&hits).unwrap());
+    }
+    assert!(files[0] == files[1] && files[1] == files[2]);
+    let hit = files[0].chunks(16).filter(|h| h[4..8] != [0xFF; 4]).count();
+    assert!(hit > 500 && hit < 19_000, "{hit} hit");
     let out = tmp("so-bad.hits").display().to_string();
     let o = kdray(&["trace", &tree, &rays, "-o", &out, "--order", "random"]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("auto or given"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("auto, given or morton"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]

@@ -8,6 +8,6 @@ mod ulp;
 
 pub use axis::Axis;
 pub use bounds::Bounds;
-pub use morton::{item_index, sort_items, MortonGrid};
+pub use morton::{item_index, sort_items, MortonGrid, RayKey};
 pub use ray::{ray_is_valid, Hit, Ray, MISS, OCCLUDED};
 pub(crate) use ulp::{next_down, next_up};

@@ -1,7 +1,10 @@
-//! Morton (Z-order) codes of ray origins and a batch of rays sorted by
-//! them, in the caller's memory: points close in space get close keys, so
-//! rays in key order are neighbours one after the other, and their walks
-//! read the cells, nodes and triangles the previous ray left in cache.
+//! Morton (Z-order) codes of rays and a batch of rays sorted by them, in
+//! the caller's memory: points close in space get close keys, so rays in
+//! key order are neighbours one after the other, and their walks read the
+//! cells, nodes and triangles the previous ray left in cache. Two keys:
+//! the origin alone (shadow rays towards one light, whose direction
+//! follows from the origin), or the origin and the direction (bounce rays,
+//! which leave nearby points in all directions).
 
 use super::{Bounds, Ray};
 
@@ -12,12 +15,33 @@ const BITS: u32 = 10;
 /// The key of a point with a non-finite coordinate: after every other.
 const NOT_FINITE: u32 = 1 << (3 * BITS);
 
-/// A grid of `2^10` cells a side over a box, for [`MortonGrid::key`].
+/// Origin bits per axis of a key with the direction ([`RayKey::OriginDirection`]).
+const ORIGIN_BITS: u32 = 6;
+/// Direction bits per axis of such a key: 6 + 6 + 6 + 4 + 4 + 4 = 30 bits.
+const DIRECTION_BITS: u32 = 4;
+
+/// What a ray's key orders by.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RayKey {
+    /// The origin, 10 bits an axis: rays from nearby points one after the
+    /// other (shadow rays towards a light: their directions follow from
+    /// their origins).
+    Origin,
+    /// The origin, 6 bits an axis, and the direction, 4 bits an axis,
+    /// interleaved from the top: rays from nearby points in nearby
+    /// directions one after the other (bounce rays, random rays).
+    OriginDirection,
+}
+
+/// A grid of cells over a box of origins, for [`MortonGrid::key`] and
+/// [`MortonGrid::item`].
 #[derive(Clone, Copy, Debug)]
 pub struct MortonGrid {
     lo: [f32; 3],
     /// Cells per unit on each axis (0 for a flat axis: one cell).
     scale: [f32; 3],
+    /// What [`MortonGrid::item`] keys a ray by.
+    by: RayKey,
 }
 
 impl MortonGrid {
@@ -37,10 +61,21 @@ impl MortonGrid {
         MortonGrid {
             lo: bounds.min,
             scale: [scale(0), scale(1), scale(2)],
+            by: RayKey::Origin,
         }
     }
 
-    /// The grid over the finite origins of `rays`.
+    /// The grid over the finite origins of `rays`, keying each ray by `by`.
+    #[must_use]
+    pub fn over_rays(rays: &[Ray], by: RayKey) -> MortonGrid {
+        MortonGrid {
+            by,
+            ..MortonGrid::over_origins(rays)
+        }
+    }
+
+    /// The grid over the finite origins of `rays`, keying each ray by its
+    /// origin ([`RayKey::Origin`]).
     #[must_use]
     pub fn over_origins(rays: &[Ray]) -> MortonGrid {
         let finite = |r: &&Ray| r.origin.iter().all(|c| c.is_finite());
@@ -70,12 +105,50 @@ impl MortonGrid {
         key
     }
 
-    /// A ray's item for [`sort_items`]: its origin's key in the high word,
-    /// its index `i` in the low one.
+    /// The key of a ray by its origin (6 bits an axis) and its direction
+    /// (4 bits an axis, over `[-1, 1]` after dividing by the largest
+    /// component's magnitude: a cube around the origin), below `2^30`: the
+    /// origin's two top bits of each axis, then rounds of one bit of each
+    /// origin and direction axis. A ray with a non-finite origin or
+    /// direction gets `2^30`, after every other.
+    #[must_use]
+    pub fn ray_key(&self, ray: &Ray) -> u32 {
+        let (o, d) = (ray.origin, ray.dir);
+        if !o.iter().chain(&d).all(|c| c.is_finite()) {
+            return NOT_FINITE;
+        }
+        let big = d[0].abs().max(d[1].abs()).max(d[2].abs());
+        // A zero direction (an invalid ray) falls in the middle cell.
+        let half = (1u32 << DIRECTION_BITS) as f32 / 2.0;
+        let to_cube = if big > 0.0 { half / big } else { 0.0 };
+        let (mut top, mut low) = (0, 0);
+        for a in 0..3 {
+            let cell = ((o[a] - self.lo[a]) * self.scale[a]) as u32 >> (BITS - ORIGIN_BITS);
+            let cell = cell.min((1 << ORIGIN_BITS) - 1);
+            let dir = ((d[a] * to_cube + half) as u32).min((1 << DIRECTION_BITS) - 1);
+            // Round bit k: origin x, y, z at 6k + 5, 4, 3; direction x,
+            // y, z at 6k + 2, 1, 0.
+            top |= spread(cell >> DIRECTION_BITS) << (2 - a);
+            low |= spread_six(cell) << (5 - a) | spread_six(dir) << (2 - a);
+        }
+        top << (6 * DIRECTION_BITS) | low
+    }
+
+    /// A ray's item for [`sort_items`]: its key (by the grid's [`RayKey`])
+    /// in the high word, its index `i` in the low one.
     #[must_use]
     pub fn item(&self, ray: &Ray, i: u32) -> u64 {
-        u64::from(self.key(ray.origin)) << 32 | u64::from(i)
+        let key = match self.by {
+            RayKey::Origin => self.key(ray.origin),
+            RayKey::OriginDirection => self.ray_key(ray),
+        };
+        u64::from(key) << 32 | u64::from(i)
     }
+}
+
+/// `x`'s low 4 bits moved to every sixth bit.
+fn spread_six(x: u32) -> u32 {
+    (x & 1) | (x & 2) << 5 | (x & 4) << 10 | (x & 8) << 15
 }
 
 /// `x`'s low 10 bits moved to every third bit.
@@ -154,6 +227,47 @@ mod tests {
             max: [1.0, 0.0, 1.0],
         });
         assert_eq!(flat.key([0.0, 7.0, 0.0]), 0);
+    }
+
+    #[test]
+    fn ray_keys_put_the_origin_above_the_direction() {
+        let grid = MortonGrid::new(&Bounds {
+            min: [0.0; 3],
+            max: [1.0; 3],
+        });
+        let key = |o: [f32; 3], d: [f32; 3]| grid.ray_key(&Ray::new(o.into(), d.into()));
+        // The lowest origin cell towards -x, -y, -z (a corner of the cube
+        // of directions): every bit clear; the highest towards +x, +y, +z:
+        // every one of the 30 bits set.
+        assert_eq!(key([0.0; 3], [-1.0; 3]), 0);
+        assert_eq!(key([1.0; 3], [1.0; 3]), (1 << 30) - 1);
+        // Lengths do not matter, only the direction.
+        assert_eq!(
+            key([0.5; 3], [0.0, 2.0, 4.0]),
+            key([0.5; 3], [0.0, 0.5, 1.0])
+        );
+        // The origin's top bits decide before any direction bit: the top
+        // 6 bits are the origin's two highest bits of each axis.
+        let (low, high) = (
+            key([0.49, 0.0, 0.0], [1.0; 3]),
+            key([0.5, 0.0, 0.0], [-1.0; 3]),
+        );
+        assert!(low < high);
+        assert_eq!(high >> 24, 0b100_000);
+        // Round bit k: origin x at 6k + 5, direction z at 6k + 0.
+        assert_eq!(key([0.0; 3], [-1.0, -1.0, 1.0]), spread_six(15));
+        assert_eq!(key([1.0 / 64.0, 0.0, 0.0], [-1.0; 3]), 1 << 5);
+        // A zero direction (an invalid ray) lies in the middle cell;
+        // anything non-finite after every other key.
+        assert_eq!(key([0.0; 3], [0.0; 3]), spread_six(8) * 0b111);
+        assert_eq!(key([0.0; 3], [f32::NAN, 0.0, 1.0]), NOT_FINITE);
+        assert_eq!(key([f32::INFINITY, 0.0, 0.0], [1.0; 3]), NOT_FINITE);
+        // The grid's `RayKey` picks the item's key.
+        let ray = Ray::new([0.5; 3].into(), [1.0, 0.0, 0.0].into());
+        let by = MortonGrid::over_rays(&[ray], RayKey::OriginDirection);
+        assert_eq!(by.item(&ray, 7), u64::from(by.ray_key(&ray)) << 32 | 7);
+        let by = MortonGrid::over_rays(&[ray], RayKey::Origin);
+        assert_eq!(by.item(&ray, 7), u64::from(by.key(ray.origin)) << 32 | 7);
     }
 
     #[test]

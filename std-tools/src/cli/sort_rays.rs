@@ -1,10 +1,12 @@
-//! `kdray sort-rays IN.rays -o OUT.rays`: the same rays in the order of the
-//! Morton code of their origins (`kdray_tools::morton`), as an engine gives
-//! the shadow or bounce rays of neighbouring pixels, for `trace` to measure
-//! that order beside the file's own. In and out may be the same file.
+//! `kdray sort-rays IN.rays -o OUT.rays [--key origin|origin-direction]`:
+//! the same rays in the order of the Morton code of their origins (or of
+//! their origins and directions; `kdray_tools::morton`), as an engine
+//! gives the shadow or bounce rays of neighbouring pixels, for `trace` to
+//! measure that order beside the file's own. In and out may be the same
+//! file.
 
 use super::CmdResult;
-use kdray_kernel::Ray;
+use kdray_kernel::{Ray, RayKey};
 use kdray_tools::{io, morton};
 use std::path::PathBuf;
 
@@ -16,15 +18,32 @@ pub(crate) struct Args {
     /// Where to write the sorted rays (replaced only once complete).
     #[arg(short, long)]
     output: PathBuf,
+    /// What the Morton code is made of.
+    #[arg(long, value_enum, default_value_t = Key::Origin)]
+    key: Key,
+}
+
+/// `--key`: the kernel's [`RayKey`] by name.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum Key {
+    /// The origin (shadow rays: what `trace` sorts any-hit batches by).
+    Origin,
+    /// The origin and the direction (bounce and random rays: what `trace`
+    /// sorts closest-hit batches by).
+    OriginDirection,
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
     io::check_output(&a.output)?;
     let mut rays: Vec<Ray> = io::read_records(&a.rays, "ray")?;
-    morton::sort_by_origin(&mut rays);
+    let (by, of) = match a.key {
+        Key::Origin => (RayKey::Origin, "origins"),
+        Key::OriginDirection => (RayKey::OriginDirection, "origins and directions"),
+    };
+    morton::sort_by(&mut rays, by);
     io::write_records(&a.output, &rays)?;
     say!(
-        "wrote {} rays in Morton order of their origins to {}",
+        "wrote {} rays in Morton order of their {of} to {}",
         rays.len(),
         a.output.display()
     );

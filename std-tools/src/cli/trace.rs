@@ -44,19 +44,21 @@ pub(crate) struct Args {
     counts: bool,
     /// The order rays are traced in: `auto` traces a large batch of
     /// scattered any-hit rays (shadow rays from random surface points) in
-    /// the Morton order of their origins, the sort included in the timing;
-    /// `given` keeps the file's order. The hits are the same, in the
-    /// file's order.
+    /// the Morton order of their origins; `morton` any batch in Morton
+    /// order (closest-hit rays by origin and direction); the sort is
+    /// included in the timing. `given` keeps the file's order. The hits
+    /// are the same, in the file's order.
     #[arg(long, default_value = "auto", value_parser = parse_order)]
     order: Order,
 }
 
-/// `--order`: `auto` or `given`.
+/// `--order`: `auto`, `given` or `morton`.
 fn parse_order(s: &str) -> Result<Order, String> {
     match s {
         "auto" => Ok(Order::Auto),
         "given" => Ok(Order::Given),
-        _ => Err(format!("{s:?} is not an order: use auto or given")),
+        "morton" => Ok(Order::Morton),
+        _ => Err(format!("{s:?} is not an order: use auto, given or morton")),
     }
 }
 
@@ -132,7 +134,11 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             if a.any_hit { "occluded" } else { "hit" },
             plural(pool.current_num_threads(), "thread"),
             a.packet.lanes(),
-            if sorted { ", in the Morton order of their origins" } else { "" },
+            match (sorted, query) {
+                (false, _) => "",
+                (true, Query::Any) => ", in the Morton order of their origins",
+                (true, Query::Closest) => ", in the Morton order of their origins and directions",
+            },
             a.repeat,
         );
         if let Some((nodes, tris)) = per_ray {

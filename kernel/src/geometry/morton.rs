@@ -262,6 +262,27 @@ mod tests {
         assert_eq!(key([0.0; 3], [0.0; 3]), spread_six(8) * 0b111);
         assert_eq!(key([0.0; 3], [f32::NAN, 0.0, 1.0]), NOT_FINITE);
         assert_eq!(key([f32::INFINITY, 0.0, 0.0], [1.0; 3]), NOT_FINITE);
+        // Hostile finite values (huge, tiny, negative, subnormal, signed
+        // zeros, outside the grid) stay below 2^30.
+        let odd = [
+            0.0,
+            -0.0,
+            1e-45,
+            -1e-45,
+            1e-30,
+            -3.0,
+            0.5,
+            7.0,
+            1e30,
+            -f32::MAX,
+            f32::MAX,
+        ];
+        for (&a, &b) in odd.iter().zip(odd.iter().rev()) {
+            for &c in &odd {
+                assert!(key([a, b, c], [c, a, b]) < 1 << 30, "{a} {b} {c}");
+                assert!(key([c, c, a], [b, b, c]) < 1 << 30, "{a} {b} {c}");
+            }
+        }
         // The grid's `RayKey` picks the item's key.
         let ray = Ray::new([0.5; 3].into(), [1.0, 0.0, 0.0].into());
         let by = MortonGrid::over_rays(&[ray], RayKey::OriginDirection);

@@ -17,8 +17,8 @@
 
 use kdray::kernel::wire::{blob_checksum, Header, ENDIAN_CHECK, KIND_TRIANGLES, MAGIC, VERSION};
 use kdray::kernel::{
-    any_hit_brute, closest_hit_brute, Hit, Node, Packet, Packet4, Packet8, PacketWidth, Ray,
-    ShallowTree, Triangle, TriangleTree,
+    any_hit_brute, closest_hit_brute, Hit, MortonGrid, Node, Packet, Packet4, Packet8, PacketWidth,
+    Ray, RayKey, ShallowTree, Triangle, TriangleTree,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
@@ -294,6 +294,22 @@ fn packet_lanes<'t, const N: usize>(
         assert_eq!(h.bits(), tree.closest_hit(ray).bits(), "slice: {ray:?}");
         assert_eq!(*o, tree.any_hit(ray), "slice any: {ray:?}");
         assert_eq!(*b, *o, "by origin: {ray:?}");
+    }
+    // Their keys by origin and direction (what `kdray trace --order
+    // morton` sorts closest hits by): below 2^30, or 2^30 for a ray with a
+    // non-finite coordinate.
+    let grid = MortonGrid::over_rays(&rays, RayKey::OriginDirection);
+    for ray in &rays {
+        let finite = ray.origin.iter().chain(&ray.dir).all(|c| c.is_finite());
+        let key = grid.ray_key(ray);
+        assert!(
+            if finite {
+                key < 1 << 30
+            } else {
+                key == 1 << 30
+            },
+            "key {key:x}: {ray:?}"
+        );
     }
 }
 

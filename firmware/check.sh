@@ -23,7 +23,7 @@ for profile in release size; do
   cargo build -q --profile "$profile" --target $thumb --no-default-features
   echo ".text, $profile profile, validation + closest + any hit: $(text "$profile")"
   cargo build -q --profile "$profile" --target $thumb
-  echo ".text, $profile profile, with point validation + k-NN: $(text "$profile")"
+  echo ".text, $profile profile, with point validation, k-NN and first hits: $(text "$profile")"
 done
 echo "no-panic image links for $thumb in the release and size profiles"
 
@@ -35,7 +35,7 @@ if rustup +nightly target add $thumb >/dev/null 2>&1 && [ -x "$bin/llvm-objdump"
   RUSTFLAGS="-Z emit-stack-sizes -C link-arg=-Tstack-sizes.x -C link-arg=-L$(pwd)" \
     cargo +nightly build -q --profile size --target $thumb --target-dir "$target/stack-sizes"
   python3 stack_sizes.py "$target/stack-sizes/$thumb/size/kdray-firmware" "$bin/llvm-objdump" \
-    kdray_fw_validate_triangles kdray_fw_validate_points kdray_fw_closest_hit kdray_fw_any_hit kdray_fw_knn
+    kdray_fw_validate_triangles kdray_fw_validate_points kdray_fw_closest_hit kdray_fw_any_hit kdray_fw_first_hits kdray_fw_knn
 else
   echo "nightly or llvm-objdump not installable here: stack sizes skipped"
 fi

@@ -41,5 +41,6 @@ check("occluded from inside the closed cube", trace(store, 2, 0.5, 0.5, 0.5, 0.0
 check("not occluded, away from the cube", trace(store, 2, 0.3, 0.6, -1.0, 0.0, 0.0, -1.0), 0)
 check("miss", trace(store, 0, 0.3, 0.6, -1.0, 0.0, 0.0, -1.0), 0xFFFFFFFF)
 # The grid point (0.25, 0.5, 0) is point 1 + 2 * 5 = 11.
+check("first hits: floor, inner triangle, roof", trace(store, 4, 0.3, 0.6, -1.0, 0.0, 0.0, 1.0), 1 | 13 << 8 | 2 << 16)
 check("nearest grid point", trace(store, 3, 0.26, 0.49, 0.01, 0.0, 0.0, 1.0), 11)
 print("wasm image: no imports, rays traced")

@@ -7,7 +7,9 @@
 mod common;
 
 use common::assert_matches_brute;
-use kdray::kernel::{any_hit_brute, closest_hit_brute, Ray, ShallowTree, Triangle};
+use kdray::kernel::{
+    any_hit_brute, closest_hit_brute, first_hits_brute, Hit, Ray, ShallowTree, Triangle,
+};
 use kdray::tools::blob::write_triangle_tree;
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use proptest::prelude::*;
@@ -123,7 +125,8 @@ fn grid_rays_through_planes_edges_and_vertices() {
 }
 
 /// A tree built to a depth limit, walked by a [`ShallowTree`] of exactly
-/// that depth (one stack entry per level), answers as brute force; a
+/// that depth (one stack entry per level), answers as brute force (closest,
+/// any and first hits); a
 /// stack one level shallower is refused.
 #[test]
 fn shallow_tree_of_the_tree_depth_matches_brute_force() {
@@ -149,6 +152,14 @@ fn shallow_tree_of_the_tree_depth_matches_brute_force() {
         hits += usize::from(want.is_hit());
         assert_eq!(shallow.closest_hit(r).bits(), want.bits(), "ray {i} {r:?}");
         assert_eq!(shallow.any_hit(r), any_hit_brute(&tris, r), "ray {i} {r:?}");
+        let (mut got, mut want) = ([Hit::MISS; 8], [Hit::MISS; 8]);
+        let n = shallow.first_hits(r, &mut got);
+        assert_eq!(n, first_hits_brute(&tris, r, &mut want), "ray {i} {r:?}");
+        assert_eq!(
+            got.map(|h| h.bits()),
+            want.map(|h| h.bits()),
+            "ray {i} {r:?}"
+        );
     }
     assert!(hits > 500, "{hits} hits: too few to see a lost far cell");
 }

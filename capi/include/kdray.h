@@ -644,6 +644,28 @@ KdrayStatus kdray_any_hits_by_origin(const KdrayTriangleTree *tree,
                                      uint64_t *scratch,
                                      size_t scratch_count);
 
+// The first hits of `*ray` in `*tree` along the ray, at most
+// `capacity`: `hits[0..*count]`, sorted by `t` in `[tnear, tfar]` and at
+// equal `t` by the lower triangle index, each triangle once, bit for bit
+// as the Rust API (`TriangleTree::first_hits`) and brute force; the
+// first of them is `kdray_closest_hit`'s. `*count` is 0 for a miss;
+// entries past it are left as they were. For transparency, counting the
+// surfaces a ray crosses, or every hit along a line of sight.
+//
+// # Preconditions
+// - `tree`: as `kdray_closest_hit`.
+// - `ray`, `count`: non-null and aligned, a whole record each.
+// - `hits`: non-null (even for `capacity == 0`), 4-byte aligned,
+//   `capacity` records, not overlapping `ray` or `count`.
+//
+// # Safety
+// As the preconditions.
+KdrayStatus kdray_first_hits(const KdrayTriangleTree *tree,
+                             const KdrayRay *ray,
+                             KdrayHit *hits,
+                             size_t capacity,
+                             size_t *count);
+
 // Opens the scene blob `blob[0..len]` into `*scene`, validating all of it
 // (header, sections, checksum, every mesh tree, every instance, the top
 // level): O(len), no allocation, no copy. Statuses and `message` as

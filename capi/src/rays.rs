@@ -553,3 +553,46 @@ pub unsafe extern "C" fn kdray_any_hits_by_origin(
         Ok(())
     })())
 }
+
+/// The first hits of `*ray` in `*tree` along the ray, at most
+/// `capacity`: `hits[0..*count]`, sorted by `t` in `[tnear, tfar]` and at
+/// equal `t` by the lower triangle index, each triangle once, bit for bit
+/// as the Rust API (`TriangleTree::first_hits`) and brute force; the
+/// first of them is `kdray_closest_hit`'s. `*count` is 0 for a miss;
+/// entries past it are left as they were. For transparency, counting the
+/// surfaces a ray crosses, or every hit along a line of sight.
+///
+/// # Preconditions
+/// - `tree`: as `kdray_closest_hit`.
+/// - `ray`, `count`: non-null and aligned, a whole record each.
+/// - `hits`: non-null (even for `capacity == 0`), 4-byte aligned,
+///   `capacity` records, not overlapping `ray` or `count`.
+///
+/// # Safety
+/// As the preconditions.
+#[no_mangle]
+pub unsafe extern "C" fn kdray_first_hits(
+    tree: *const KdrayTriangleTree,
+    ray: *const KdrayRay,
+    hits: *mut KdrayHit,
+    capacity: usize,
+    count: *mut usize,
+) -> KdrayStatus {
+    status((|| {
+        // SAFETY: `tree`'s contract.
+        let t = unsafe { handle::load::<TriangleTree>(tree) }?;
+        check_ptr(ray)?;
+        check_ptr(hits.cast_const())?;
+        check_ptr(count.cast_const())?;
+        check_count::<KdrayHit>(capacity)?;
+        // SAFETY: checked non-null and aligned; a whole record by contract.
+        let r = unsafe { ray.read() };
+        // SAFETY: non-null, aligned, `capacity` records by contract, the
+        // size fits a slice; KdrayHit is Hit's layout (asserted above).
+        let hits = unsafe { core::slice::from_raw_parts_mut(hits.cast::<Hit>(), capacity) };
+        let n = t.first_hits(&r.into(), hits);
+        // SAFETY: as for `ray`.
+        unsafe { count.write(n) };
+        Ok(())
+    })())
+}

@@ -288,6 +288,20 @@ fn single_packet_and_stream_answers_are_the_kernels() {
         assert_eq!(Hit::from(hits[i]).bits(), expected.bits(), "ray {i}");
         assert_eq!(occ, i32::from(tree.any_hit(&ray)), "ray {i}");
         assert_eq!(occluded[i], occ, "ray {i}");
+        // The first hits: the kernel's, led by the closest.
+        let mut first = [KdrayHit::zeroed(); 4];
+        let mut want = [Hit::MISS; 4];
+        let mut count = 9;
+        // SAFETY: live objects, 4 records.
+        let s = unsafe { kdray_first_hits(&h, r, first.as_mut_ptr(), 4, &mut count) };
+        assert_eq!(
+            (s, count),
+            (KdrayStatus::Ok, tree.first_hits(&ray, &mut want))
+        );
+        for (got, want) in first.iter().zip(&want).take(count) {
+            assert_eq!(Hit::from(*got).bits(), want.bits(), "ray {i}");
+        }
+        assert_eq!(count > 0, expected.is_hit(), "ray {i}");
     }
     assert!(some > rays.len() / 2, "{some} hits");
     assert!(!Hit::from(hits[5]).is_hit() && !Hit::from(hits[9]).is_hit());

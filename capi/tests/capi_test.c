@@ -177,6 +177,15 @@ static void check_rays(const uint8_t *blob, size_t len, const char *out) {
     any_records[i] = rec;
   }
   CHECK(closest[7].prim_id == KDRAY_MISS && closest[11].prim_id == KDRAY_MISS, "invalid rays miss");
+  for (int i = 0; i < RAYS; i++) {
+    KdrayHit first[4];
+    size_t count = 99;
+    CHECK(kdray_first_hits(&tree, &rays[i], first, 4, &count) == KDRAY_STATUS_OK, "first hits of ray %d", i);
+    CHECK((count > 0) == (closest[i].prim_id != KDRAY_MISS), "ray %d: first hits iff a closest hit", i);
+    CHECK(count == 0 || memcmp(&first[0], &closest[i], sizeof first[0]) == 0, "ray %d: the first hit is the closest", i);
+    for (size_t k = 1; k < count; k++)
+      CHECK(first[k].t >= first[k - 1].t, "ray %d: first hits sorted by t", i);
+  }
 
   CHECK(kdray_closest_hits(&tree, rays, stream, RAYS) == KDRAY_STATUS_OK, "stream");
   CHECK(memcmp(stream, closest, sizeof stream) == 0, "stream hits equal single-ray hits");

@@ -15,7 +15,8 @@
 //!
 //! The entry points measured (README, "Firmware figures") are the
 //! `#[no_mangle]` Rust functions `kdray_fw_validate_*`,
-//! `kdray_fw_closest_hit`, `kdray_fw_any_hit` and `kdray_fw_knn`; the
+//! `kdray_fw_closest_hit`, `kdray_fw_any_hit`, `kdray_fw_first_hits` and
+//! `kdray_fw_knn`; the
 //! `extern "C"` wrappers (`kdray_fw_boot`, `kdray_fw_trace`) give the host
 //! of a wasm build scalar arguments.
 #![no_std]
@@ -72,6 +73,14 @@ pub fn kdray_fw_any_hit(tree: &Tree, ray: &Ray) -> bool {
     tree.any_hit(ray)
 }
 
+/// The first hits of one ray (at most 4), nearest first; returns how many.
+#[cfg(feature = "first-hits")]
+#[no_mangle]
+#[inline(never)]
+pub fn kdray_fw_first_hits(tree: &Tree, ray: &Ray, out: &mut [Hit; 4]) -> usize {
+    tree.first_hits(ray, out)
+}
+
 /// The `K` nearest points to `q`, nearest first; returns how many.
 #[cfg(feature = "knn")]
 #[no_mangle]
@@ -93,7 +102,10 @@ pub extern "C" fn kdray_fw_boot() -> u32 {
 /// scene. `what` 0: the closest hit's triangle index (`0xFFFF_FFFF` for a
 /// miss); 1: the closest hit's `t` as f32 bits; 2: 1 if occluded, else 0;
 /// 3: the nearest embedded point to `origin` (`0xFFFF_FFFF` without the
-/// `knn` feature or a point). `0xFFFF_FFFF` if a blob is refused.
+/// `knn` feature or a point); 4 (with the `first-hits` feature): the
+/// triangle indices of the first three hits, a byte each from the low one
+/// (`0xFF` past the last hit).
+/// `0xFFFF_FFFF` if a blob is refused.
 #[no_mangle]
 pub extern "C" fn kdray_fw_trace(
     what: u32,
@@ -117,6 +129,15 @@ pub extern "C" fn kdray_fw_trace(
         0 => kdray_fw_closest_hit(&tree, &ray).prim,
         1 => kdray_fw_closest_hit(&tree, &ray).t.to_bits(),
         2 => u32::from(kdray_fw_any_hit(&tree, &ray)),
+        #[cfg(feature = "first-hits")]
+        4 => {
+            let mut hits = [Hit::MISS; 4];
+            let n = kdray_fw_first_hits(&tree, &ray, &mut hits);
+            (0..3).fold(0, |word, i| {
+                let prim = if i < n { hits[i].prim & 0xFF } else { 0xFF };
+                word | prim << (8 * i)
+            })
+        }
         _ => nearest([ox, oy, oz]),
     }
 }

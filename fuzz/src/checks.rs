@@ -17,8 +17,8 @@
 
 use kdray::kernel::wire::{blob_checksum, Header, ENDIAN_CHECK, KIND_TRIANGLES, MAGIC, VERSION};
 use kdray::kernel::{
-    any_hit_brute, closest_hit_brute, Hit, MortonGrid, Node, Packet, Packet4, Packet8, PacketWidth,
-    Ray, RayKey, ShallowTree, Triangle, TriangleTree,
+    any_hit_brute, closest_hit_brute, first_hits_brute, Hit, MortonGrid, Node, Packet, Packet4,
+    Packet8, PacketWidth, Ray, RayKey, ShallowTree, Triangle, TriangleTree,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
@@ -340,10 +340,29 @@ pub fn tree_vs_brute(data: &[u8]) {
         let ray = r.ray();
         let want = closest_hit_brute(&tris, &ray);
         let want_any = any_hit_brute(&tris, &ray);
+        // The first 4 hits: sorted, each triangle once, led by the closest.
+        let mut first = [Hit::MISS; 4];
+        let n = first_hits_brute(&tris, &ray, &mut first);
+        assert_eq!(
+            first[0].bits(),
+            want.bits(),
+            "first hits lead with the closest"
+        );
         for (kind, tree) in &trees {
             let got = tree.closest_hit(&ray);
             assert_eq!(got.bits(), want.bits(), "{kind:?}: {ray:?} {tris:?}");
             assert_eq!(tree.any_hit(&ray), want_any, "{kind:?} any: {ray:?}");
+            let mut got = [Hit::MISS; 4];
+            assert_eq!(
+                tree.first_hits(&ray, &mut got),
+                n,
+                "{kind:?} first: {ray:?}"
+            );
+            assert_eq!(
+                got.map(|h| h.bits()),
+                first.map(|h| h.bits()),
+                "{kind:?} first"
+            );
             // The depth-bounded walk, for the trees it takes (most here).
             if let Ok(shallow) = ShallowTree::<16>::new(*tree) {
                 let got = shallow.closest_hit(&ray);

@@ -133,7 +133,9 @@ pub use scene::{
     inverse_affine, Instance, MeshEntry, Scene, SceneError, SceneHit, IDENTITY, KIND_SCENE,
     MESH_ALIGN,
 };
-pub use triangle::{any_hit_brute, closest_hit_brute, SurfacePoint, Triangle, MAX_COORD};
+pub use triangle::{
+    any_hit_brute, closest_hit_brute, first_hits_brute, SurfacePoint, Triangle, MAX_COORD,
+};
 pub use triangle_tree::packet::{Packet, Packet16, Packet4, Packet8, PacketWidth};
 pub use triangle_tree::{ShallowTree, TraversalCounts, TriangleTree};
 pub use wire::Aligned;

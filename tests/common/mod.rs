@@ -2,7 +2,7 @@
 #![allow(missing_docs)]
 #![allow(dead_code)]
 
-use kdray::kernel::{any_hit_brute, closest_hit_brute, Ray, Triangle};
+use kdray::kernel::{any_hit_brute, closest_hit_brute, first_hits_brute, Hit, Ray, Triangle};
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use std::path::PathBuf;
@@ -58,28 +58,76 @@ pub(crate) fn blob(tris: &[Triangle], kind: BuilderKind) -> Blob {
 }
 
 /// Asserts every builder's tree answers every ray exactly as brute force:
-/// closest hit bitwise, any hit the same boolean.
+/// closest hit bitwise, any hit the same boolean, the first hits bitwise.
 pub(crate) fn assert_matches_brute(tris: &[Triangle], rays: &[Ray]) {
+    // Brute force's answers once a ray: the closest hit, any hit and the
+    // first hits (up to 256; fewer hits are brute force's complete list).
+    let room = tris.len().clamp(1, 256);
+    let want: Vec<(Hit, bool, Vec<Hit>)> = rays
+        .iter()
+        .map(|r| {
+            let mut first = vec![Hit::MISS; room];
+            let n = first_hits_brute(tris, r, &mut first);
+            first.truncate(n);
+            (closest_hit_brute(tris, r), any_hit_brute(tris, r), first)
+        })
+        .collect();
+    for r in rays.iter().take(64) {
+        assert_first_hits_sorted_once(tris, r);
+    }
+    let bits = |h: &[Hit]| h.iter().map(Hit::bits).collect::<Vec<_>>();
     for kind in BuilderKind::ALL {
         let blob = blob(tris, kind);
         let tree = blob.tree().expect("built tree validates");
-        for (i, r) in rays.iter().enumerate() {
-            let want = closest_hit_brute(tris, r);
+        for (i, (r, (closest, any, first))) in rays.iter().zip(&want).enumerate() {
             let got = tree.closest_hit(r);
             assert_eq!(
                 got.bits(),
-                want.bits(),
-                "builder {}: ray {i} {r:?}: tree {got:?} != brute {want:?}",
+                closest.bits(),
+                "builder {}: ray {i} {r:?}: tree {got:?} != brute {closest:?}",
                 kind.name()
             );
             assert_eq!(
                 tree.any_hit(r),
-                any_hit_brute(tris, r),
+                *any,
                 "builder {}: any-hit of ray {i} {r:?}",
                 kind.name()
             );
+            assert_eq!(first.first().unwrap_or(&Hit::MISS).bits(), closest.bits());
+            // The first hits in buffers of one (the closest hit), a few,
+            // and brute force's: each the front of brute force's list.
+            for k in [1, 3, room] {
+                let mut got = vec![Hit::MISS; k];
+                let n = tree.first_hits(r, &mut got);
+                let m = first.len().min(k);
+                assert_eq!(
+                    bits(&got[..n]),
+                    bits(&first[..m]),
+                    "builder {}: first {k} hits of ray {i} {r:?}",
+                    kind.name()
+                );
+            }
         }
     }
+}
+
+/// Brute force's first hits are every triangle's own hit (each tested
+/// alone), sorted by `t` and then index.
+fn assert_first_hits_sorted_once(tris: &[Triangle], r: &Ray) {
+    let mut each: Vec<Hit> = tris
+        .iter()
+        .enumerate()
+        .map(|(i, t)| Hit {
+            prim: i as u32,
+            ..closest_hit_brute(std::slice::from_ref(t), r)
+        })
+        .filter(|h| h.t.is_finite())
+        .collect();
+    each.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.prim.cmp(&b.prim)));
+    let mut got = vec![Hit::MISS; tris.len()];
+    let n = first_hits_brute(tris, r, &mut got);
+    let bits = |h: &[Hit]| h.iter().map(Hit::bits).collect::<Vec<_>>();
+    assert_eq!(bits(&got[..n]), bits(&each), "{r:?}");
 }
 
 /// The `f64` reference for one triangle: Möller-Trumbore in `f64` on the

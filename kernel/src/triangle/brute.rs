@@ -1,7 +1,7 @@
 //! The brute-force oracles: every triangle tested, by the same test and the
 //! same tie rule as the tree. What every traversal is held to.
 
-use super::{Closest, ShearedRay, Triangle};
+use super::{Closest, FirstHits, ShearedRay, Triangle};
 use crate::geometry::{Hit, Ray};
 
 /// The brute-force answer: the closest hit of `ray` over all of
@@ -28,4 +28,19 @@ pub fn any_hit_brute(triangles: &[Triangle], ray: &Ray) -> bool {
             .iter()
             .any(|tri| sr.intersects(tri, ray.tmin, ray.tmax))
     })
+}
+
+/// The brute-force first hits: the first `out.len()` hits of `ray` in
+/// `[tmin, tmax]` over all of `triangles`, sorted by `t` and at equal `t`
+/// by the lower triangle index, written to the front of `out`; returns
+/// how many. The oracle [`TriangleTree::first_hits`](crate::TriangleTree::first_hits) is held to.
+pub fn first_hits_brute(triangles: &[Triangle], ray: &Ray, out: &mut [Hit]) -> usize {
+    let Some(sr) = ShearedRay::new(ray) else {
+        return 0;
+    };
+    let mut first = FirstHits::new(out);
+    for (i, tri) in triangles.iter().enumerate() {
+        first.offer(&sr, tri, i as u32, ray.tmin, ray.tmax);
+    }
+    first.len()
 }

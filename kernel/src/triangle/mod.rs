@@ -50,13 +50,15 @@
 
 mod brute;
 mod closest;
+mod first;
 pub(crate) mod lanes;
 #[cfg(target_arch = "x86_64")]
 mod plane_x86;
 mod spawn;
 
-pub use brute::{any_hit_brute, closest_hit_brute};
+pub use brute::{any_hit_brute, closest_hit_brute, first_hits_brute};
 pub(crate) use closest::Closest;
+pub(crate) use first::FirstHits;
 pub use spawn::SurfacePoint;
 
 use crate::geometry::{next_down, next_up, ray_is_valid, Bounds, Hit, Ray};

@@ -5,6 +5,7 @@
 
 pub(crate) mod cell_ray;
 mod counts;
+mod first_hits;
 mod leaf_lanes;
 pub(crate) mod packet;
 mod shallow;

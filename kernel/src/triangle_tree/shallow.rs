@@ -88,4 +88,14 @@ impl<'a, const DEPTH: usize> ShallowTree<'a, DEPTH> {
     pub fn any_hit(&self, ray: &Ray) -> bool {
         self.tree.any_hit_tallied::<_, DEPTH>(ray, &mut ())
     }
+
+    /// [`TriangleTree::first_hits`], on a `DEPTH`-entry stack.
+    ///
+    /// # Panics
+    /// Never.
+    #[inline]
+    #[must_use]
+    pub fn first_hits(&self, ray: &Ray, out: &mut [Hit]) -> usize {
+        self.tree.first_hits_within::<DEPTH>(ray, out)
+    }
 }

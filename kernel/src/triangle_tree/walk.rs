@@ -493,7 +493,7 @@ impl<'a> TriangleTree<'a> {
     /// for a tree of that depth (a deeper, unchecked one ends the walk
     /// where a push finds no room).
     #[inline(always)]
-    fn walk<T, V, const DEPTH: usize>(
+    pub(super) fn walk<T, V, const DEPTH: usize>(
         &self,
         cr: &CellRay,
         start: (u32, f32, f32),

@@ -144,6 +144,26 @@ pub fn trace_into(
     }
 }
 
+/// The first `k` hits of each ray ([`TriangleTree::first_hits`]) into
+/// `hits`, `k` slots a ray (at least `k * rays.len()` of them), in
+/// parallel on the current rayon pool: a ray's hits by `t` then triangle
+/// index, its unused slots miss records. Returns how many hits in all.
+pub fn first_hits_into(tree: &TriangleTree<'_>, rays: &[Ray], hits: &mut [Hit], k: usize) -> usize {
+    let k = k.max(1);
+    rays.par_chunks(CHUNK)
+        .zip(hits.par_chunks_mut(CHUNK * k))
+        .map(|(r, h)| {
+            r.iter()
+                .zip(h.chunks_mut(k))
+                .map(|(ray, slots)| {
+                    slots.fill(Hit::MISS);
+                    tree.first_hits(ray, slots)
+                })
+                .sum::<usize>()
+        })
+        .sum()
+}
+
 /// [`trace_into`] in the batch's order.
 fn trace_chunks(
     tree: &TriangleTree<'_>,

@@ -253,6 +253,70 @@ fn trace_sorts_scattered_shadow_rays_and_answers_in_file_order() {
 }
 
 #[test]
+fn trace_first_hits_writes_k_records_a_ray() {
+    // Two unit quads, at z = 0 and z = 1.
+    let two = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\nf 1 2 3 4\nf 5 6 7 8\n";
+    let obj = write(&tmp("fh.obj"), two);
+    let tree = tmp("fh.kdt").display().to_string();
+    assert!(kdray(&["build", &obj, "-o", &tree]).status.success());
+    // Up through both quads, up through none (outside), and down from above.
+    let rays = ray_bytes(&[
+        [0.3, 0.4, -1.0, 0.0, 0.0, 0.0, 1.0, f32::INFINITY],
+        [3.0, 0.4, -1.0, 0.0, 0.0, 0.0, 1.0, f32::INFINITY],
+        [0.6, 0.2, 5.0, 0.0, 0.0, 0.0, -1.0, f32::INFINITY],
+    ]);
+    let rays = write(&tmp("fh.rays"), &rays);
+    let run = |extra: &[&str], name: &str| {
+        let out = tmp(name).display().to_string();
+        let mut args = vec!["trace", &tree, &rays, "-o", &out];
+        args.extend_from_slice(extra);
+        let o = kdray(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        std::fs::read(&out).unwrap()
+    };
+    let record = |b: &[u8], i: usize| {
+        let f = |o: usize| f32::from_le_bytes(b[16 * i + o..16 * i + o + 4].try_into().unwrap());
+        let prim = u32::from_le_bytes(b[16 * i + 4..16 * i + 8].try_into().unwrap());
+        (f(0), prim)
+    };
+    let closest = run(&[], "fh-closest.hits");
+    assert_eq!(run(&["--first-hits", "1"], "fh-1.hits"), closest);
+    let three = run(&["--first-hits", "3"], "fh-3.hits");
+    assert_eq!(three.len(), 3 * closest.len());
+    // Ray 0: z = 0 at t = 1, z = 1 at t = 2, then nothing.
+    assert_eq!(record(&three, 0).0, 1.0);
+    assert_eq!(record(&three, 1).0, 2.0);
+    assert_eq!(record(&three, 2).1, u32::MAX);
+    // Ray 1 misses: three miss records. Ray 2, downwards: z = 1 first.
+    assert!((3..6).all(|i| record(&three, i).1 == u32::MAX));
+    assert_eq!((record(&three, 6).0, record(&three, 7).0), (4.0, 5.0));
+    assert_eq!(&three[..16], &closest[..16]);
+    // Bad uses: clear errors, nothing written.
+    for (extra, says) in [
+        (&["--first-hits", "0"][..], "at least 1"),
+        (&["--first-hits", "2", "--packet", "8"][..], "single rays"),
+        (
+            &["--first-hits", "2", "--any-hit"][..],
+            "cannot be used with",
+        ),
+    ] {
+        let out = tmp("fh-bad.hits").display().to_string();
+        let mut args = vec!["trace", &tree, &rays, "-o", &out];
+        args.extend_from_slice(extra);
+        let o = kdray(&args);
+        assert!(
+            !o.status.success() && stderr(&o).contains(says),
+            "{extra:?}: {}",
+            stderr(&o)
+        );
+        assert!(
+            !std::path::Path::new(&out).exists(),
+            "{extra:?} wrote {out}"
+        );
+    }
+}
+
+#[test]
 fn bad_inputs_get_clear_errors() {
     let obj = write(&tmp("ok.obj"), QUAD_OBJ);
     let tree = tmp("ok.kdt").display().to_string();

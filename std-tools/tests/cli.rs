@@ -293,7 +293,8 @@ fn trace_first_hits_writes_k_records_a_ray() {
     assert_eq!(&three[..16], &closest[..16]);
     // Bad uses: clear errors, nothing written.
     for (extra, says) in [
-        (&["--first-hits", "0"][..], "at least 1"),
+        (&["--first-hits", "0"][..], "must be 1 to 1024"),
+        (&["--first-hits", "1025"][..], "must be 1 to 1024"),
         (&["--first-hits", "2", "--packet", "8"][..], "single rays"),
         (
             &["--first-hits", "2", "--any-hit"][..],

@@ -22,8 +22,8 @@ pub(crate) struct Args {
     output: PathBuf,
     /// The first K hits of each ray instead of the closest: K records a
     /// ray in the hit file, by t then triangle index, each triangle once,
-    /// unused slots miss records (docs/formats.md). Single rays, a
-    /// triangle tree.
+    /// unused slots miss records (docs/formats.md); K at most 1024. Single
+    /// rays, a triangle tree.
     #[arg(long, value_name = "K", conflicts_with = "any_hit")]
     first_hits: Option<usize>,
     /// Occlusion only: occluded rays get t = -inf, triangle 0xFFFFFFFE.
@@ -165,6 +165,9 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     Ok(())
 }
 
+/// The most records a ray `--first-hits` writes.
+const MAX_FIRST_HITS: usize = 1024;
+
 /// `kdray trace --first-hits K`: `k` records a ray.
 fn trace_first_hits(
     a: &Args,
@@ -173,24 +176,21 @@ fn trace_first_hits(
     rays: &[Ray],
     k: usize,
 ) -> CmdResult {
-    if k == 0 {
-        return Err("--first-hits must be at least 1".into());
+    if !(1..=MAX_FIRST_HITS).contains(&k) {
+        return Err(format!("--first-hits {k}: must be 1 to {MAX_FIRST_HITS}").into());
     }
     if a.packet != PacketWidth::One {
         return Err("--first-hits traces single rays: leave --packet at 1".into());
     }
-    let slots = rays
-        .len()
-        .checked_mul(k)
-        .filter(|&n| n <= (isize::MAX as usize) / 16);
-    let Some(slots) = slots else {
-        return Err(format!(
-            "--first-hits {k}: {} rays need too large a hit file",
+    let slots = rays.len().saturating_mul(k);
+    let mut hits = Vec::new();
+    hits.try_reserve_exact(slots).map_err(|_| {
+        format!(
+            "--first-hits {k}: no memory for {slots} hit records ({} rays)",
             rays.len()
         )
-        .into());
-    };
-    let mut hits = vec![Hit::MISS; slots];
+    })?;
+    hits.resize(slots, Hit::MISS);
     let (mut seconds, mut found) = (f64::INFINITY, 0);
     for _ in 0..a.repeat {
         let t = Instant::now();

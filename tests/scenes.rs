@@ -7,8 +7,9 @@
 use kdray::kernel::{Instance, Packet8, Ray, Scene, SceneError, SceneHit, Triangle, TriangleTree};
 use kdray::tools::builders::{build, BuildParams, BuilderKind, BuiltTree};
 use kdray::tools::instances::{
-    build_scene, build_top_level, flatten_scene, flattened_offsets, generated_level, mesh_bounds,
-    moved_level, placement, sphere, torus, world_boxes, SceneParts, TopLevel, TopParams,
+    build_scene, build_top_level, first_hits_scene, flatten_scene, flattened_offsets,
+    generated_level, mesh_bounds, moved_level, placement, sphere, torus, world_boxes, SceneParts,
+    TopLevel, TopParams,
 };
 use proptest::prelude::*;
 
@@ -55,6 +56,26 @@ fn check(scene: &Scene<'_>, ray: &Ray, mask: u32) -> bool {
         scene.any_hit_brute(ray, mask),
         "{ray:?}"
     );
+    // The first hits in buffers of one (the closest hit) and of eight
+    // (two instances of the same mesh overlapping, the same triangle in
+    // both, at equal t: ordered by instance).
+    for k in [1, 8] {
+        let (mut got, mut brute) = (vec![SceneHit::MISS; k], vec![SceneHit::MISS; k]);
+        let n = scene.first_hits(ray, mask, &mut got);
+        assert_eq!(n, scene.first_hits_brute(ray, mask, &mut brute), "{ray:?}");
+        let bits = |h: &[SceneHit]| h.iter().map(SceneHit::bits).collect::<Vec<_>>();
+        assert_eq!(
+            bits(&got),
+            bits(&brute),
+            "first {k} hits of {ray:?} mask {mask:#x}"
+        );
+        assert_eq!(got[0].bits(), want.bits(), "the first hit is the closest");
+        let rank = |h: &SceneHit| (h.t, h.instance, h.prim);
+        assert!(
+            got[..n].windows(2).all(|w| rank(&w[0]) < rank(&w[1])),
+            "sorted by t, instance, triangle, each once: {got:?}"
+        );
+    }
     want.is_hit()
 }
 
@@ -144,6 +165,11 @@ fn coincident_copies_tie_to_the_lower_instance() {
     assert!(!scene.any_hit(&ray, 0b1000));
     assert_eq!(scene.closest_hit(&ray, 0), SceneHit::MISS);
     check(&scene, &ray, 0b110);
+    // Every copy's entry and exit: at each t the lower instance first.
+    let mut first = [SceneHit::MISS; 8];
+    assert_eq!(scene.first_hits(&ray, 0b111, &mut first), 6);
+    assert_eq!(first.map(|h| h.instance)[..6], [0, 1, 2, 0, 1, 2]);
+    assert!(first[0].t == first[2].t && first[2].t < first[3].t);
 }
 
 #[test]
@@ -463,4 +489,56 @@ fn gltf_instances_number_triangles_as_the_flattened_load_does() {
     let flat_prim = flattened_offsets(&sizes, &p.instances)[1] + u64::from(hit.prim);
     let want = kdray::kernel::closest_hit_brute(&flat, &ray);
     assert_eq!(flat_prim, u64::from(want.prim));
+}
+
+/// `kdray trace --first-hits` over a scene: each ray's first hits, numbered
+/// in the flattened order, are the flattened triangles' brute-force first
+/// hits (the same triangles in the same order; `t` may differ by the two
+/// roundings of the transform, so it is compared loosely).
+#[test]
+fn scene_first_hits_number_triangles_in_the_flattened_order() {
+    let meshes = small_meshes();
+    let insts: Vec<Instance> = (0..6)
+        .map(|k| {
+            let m = placement(
+                [0.0, 1.0, 0.0],
+                k as f32,
+                [1.0; 3],
+                [k as f32 * 0.7, 0.0, 0.0],
+            );
+            Instance::new(k % 2, m, k, u32::MAX).unwrap()
+        })
+        .collect();
+    let p = parts(&meshes, insts);
+    let trees = p.trees().unwrap();
+    let scene = p.scene(&trees).unwrap();
+    let flat = flatten_scene(&meshes, &p.instances);
+    let sizes: Vec<usize> = meshes.iter().map(Vec::len).collect();
+    let offsets = flattened_offsets(&sizes, &p.instances);
+    let rays: Vec<Ray> = (0..40)
+        .map(|i| Ray {
+            origin: [-3.0, 0.1 * (i % 7) as f32 - 0.3, 0.05 * i as f32 - 1.0],
+            tmin: 0.0,
+            dir: [1.0, 0.01 * i as f32, 0.02],
+            tmax: f32::INFINITY,
+        })
+        .collect();
+    let k = 5;
+    let mut hits = vec![kdray::kernel::Hit::MISS; rays.len() * k];
+    let total = first_hits_scene(&scene, &offsets, &rays, &mut hits, k);
+    let mut seen = 0;
+    for (r, got) in rays.iter().zip(hits.chunks(k)) {
+        let mut want = [kdray::kernel::Hit::MISS; 5];
+        let n = kdray::kernel::first_hits_brute(&flat, r, &mut want);
+        seen += n;
+        for (g, w) in got.iter().zip(&want) {
+            assert_eq!(g.prim, w.prim, "{r:?}: {got:?} against {want:?}");
+            assert!(
+                g.t == w.t || (g.t - w.t).abs() <= 1e-5 * w.t.abs(),
+                "{g:?} {w:?}"
+            );
+        }
+    }
+    assert_eq!(total, seen);
+    assert!(seen > 40, "{seen} hits: too few to see the order");
 }

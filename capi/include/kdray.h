@@ -711,6 +711,27 @@ KdrayStatus kdray_scene_any_hit(const KdrayScene *scene,
                                 uint32_t mask,
                                 int32_t *occluded);
 
+// The first hits of `*ray` among the instances of `*scene` that `mask`
+// selects, at most `capacity`: `hits[0..*count]`, sorted by `t`, then
+// instance, then triangle, each instance's triangle once, bit for bit as
+// the Rust API (`Scene::first_hits`); the first is
+// `kdray_scene_closest_hit`'s. `*count` is 0 for a miss; entries past it
+// are left as they were.
+//
+// # Preconditions
+// As `kdray_scene_closest_hit`; `count` non-null and aligned; `hits`
+// non-null (even for `capacity == 0`), 4-byte aligned, `capacity`
+// records, not overlapping `ray` or `count`.
+//
+// # Safety
+// As the preconditions.
+KdrayStatus kdray_scene_first_hits(const KdrayScene *scene,
+                                   const KdrayRay *ray,
+                                   uint32_t mask,
+                                   KdraySceneHit *hits,
+                                   size_t capacity,
+                                   size_t *count);
+
 #ifdef __cplusplus
 }  // extern "C"
 #endif  // __cplusplus

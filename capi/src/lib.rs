@@ -41,7 +41,10 @@ pub use rays::{
     KdrayHit16, KdrayHit4, KdrayHit8, KdrayHitN, KdrayRay, KdrayRay16, KdrayRay4, KdrayRay8,
     KdrayRayN, KDRAY_MISS, KDRAY_OCCLUDED,
 };
-pub use scenes::{kdray_scene_any_hit, kdray_scene_closest_hit, kdray_scene_open, KdraySceneHit};
+pub use scenes::{
+    kdray_scene_any_hit, kdray_scene_closest_hit, kdray_scene_first_hits, kdray_scene_open,
+    KdraySceneHit,
+};
 
 /// What a call did: `KDRAY_STATUS_OK`, or why it did nothing.
 ///

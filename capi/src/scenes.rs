@@ -3,7 +3,7 @@
 
 use crate::handle::{self, KdrayScene};
 use crate::rays::KdrayRay;
-use crate::{check_ptr, status, KdrayStatus};
+use crate::{check_count, check_ptr, status, KdrayStatus};
 use bytemuck::{Pod, Zeroable};
 use core::ffi::c_char;
 use kdray_kernel::{Scene, SceneHit};
@@ -111,6 +111,49 @@ pub unsafe extern "C" fn kdray_scene_any_hit(
         check_ptr(occluded.cast_const())?;
         // SAFETY: checked non-null and aligned; whole records by contract.
         unsafe { occluded.write(i32::from(s.any_hit(&ray.read().into(), mask))) };
+        Ok(())
+    })())
+}
+
+/// The first hits of `*ray` among the instances of `*scene` that `mask`
+/// selects, at most `capacity`: `hits[0..*count]`, sorted by `t`, then
+/// instance, then triangle, each instance's triangle once, bit for bit as
+/// the Rust API (`Scene::first_hits`); the first is
+/// `kdray_scene_closest_hit`'s. `*count` is 0 for a miss; entries past it
+/// are left as they were.
+///
+/// # Preconditions
+/// As `kdray_scene_closest_hit`; `count` non-null and aligned; `hits`
+/// non-null (even for `capacity == 0`), 4-byte aligned, `capacity`
+/// records, not overlapping `ray` or `count`.
+///
+/// # Safety
+/// As the preconditions.
+#[no_mangle]
+pub unsafe extern "C" fn kdray_scene_first_hits(
+    scene: *const KdrayScene,
+    ray: *const KdrayRay,
+    mask: u32,
+    hits: *mut KdraySceneHit,
+    capacity: usize,
+    count: *mut usize,
+) -> KdrayStatus {
+    status((|| {
+        // SAFETY: `scene`'s contract.
+        let s = unsafe { handle::load::<Scene>(scene) }?;
+        check_ptr(ray)?;
+        check_ptr(hits.cast_const())?;
+        check_ptr(count.cast_const())?;
+        check_count::<KdraySceneHit>(capacity)?;
+        // SAFETY: checked non-null and aligned; a whole record by contract.
+        let r = unsafe { ray.read() };
+        // SAFETY: non-null, aligned, `capacity` records by contract, the
+        // size fits a slice; KdraySceneHit is SceneHit's layout (asserted
+        // above), both Pod.
+        let hits = unsafe { core::slice::from_raw_parts_mut(hits.cast::<SceneHit>(), capacity) };
+        let n = s.first_hits(&r.into(), mask, hits);
+        // SAFETY: as for `ray`.
+        unsafe { count.write(n) };
         Ok(())
     })())
 }

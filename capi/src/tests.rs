@@ -673,6 +673,20 @@ fn a_scene_answers_as_the_kernel_and_a_tree_handle_is_not_a_scene() {
     // SAFETY: as above.
     unsafe { kdray_scene_closest_hit(&h, &ray, 1, &mut hit) };
     assert_eq!(hit.inst_id, 1);
+    // The first hits: the kernel's, led by the closest.
+    let mut first = [KdraySceneHit::zeroed(); 4];
+    let mut want = [kdray_kernel::SceneHit::MISS; 4];
+    let mut count = 9;
+    // SAFETY: live handle, 4 records.
+    let s = unsafe { kdray_scene_first_hits(&h, &ray, 1, first.as_mut_ptr(), 4, &mut count) };
+    assert_eq!(
+        (s, count),
+        (KdrayStatus::Ok, scene.first_hits(&ray.into(), 1, &mut want))
+    );
+    assert!(count >= 1 && first[0] == hit);
+    for (got, want) in first.iter().zip(&want).take(count) {
+        assert_eq!(bytemuck::cast::<_, [u32; 5]>(*got), want.bits());
+    }
     // A scene handle is not a tree handle.
     let tree: *const KdrayTriangleTree = (&h as *const KdrayScene).cast();
     let mut th = KdrayHit::zeroed();

@@ -18,7 +18,7 @@
 use kdray::kernel::wire::{blob_checksum, Header, ENDIAN_CHECK, KIND_TRIANGLES, MAGIC, VERSION};
 use kdray::kernel::{
     any_hit_brute, closest_hit_brute, first_hits_brute, Hit, MortonGrid, Node, Packet, Packet4,
-    Packet8, PacketWidth, Ray, RayKey, ShallowTree, Triangle, TriangleTree,
+    Packet8, PacketWidth, Ray, RayKey, SceneHit, ShallowTree, Triangle, TriangleTree,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
@@ -494,10 +494,16 @@ pub fn scene_blob(data: &[u8]) {
     for _ in 0..8 {
         let ray = r.ray();
         let mask = r.u32() | 1;
+        let mut first = [SceneHit::MISS; 3];
         if edited {
             let _ = (scene.closest_hit(&ray, mask), scene.any_hit(&ray, mask));
+            let _ = scene.first_hits(&ray, mask, &mut first);
             continue;
         }
+        let mut brute = [SceneHit::MISS; 3];
+        let n = scene.first_hits(&ray, mask, &mut first);
+        assert_eq!(n, scene.first_hits_brute(&ray, mask, &mut brute), "{ray:?}");
+        assert_eq!(first.map(|h| h.bits()), brute.map(|h| h.bits()), "{ray:?}");
         assert_eq!(
             scene.closest_hit(&ray, mask).bits(),
             scene.closest_hit_brute(&ray, mask).bits(),

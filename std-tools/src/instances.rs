@@ -538,18 +538,56 @@ pub fn trace_scene(scene: &Scene<'_>, offsets: &[u64], rays: &[Ray], hits: &mut 
                 *h = if any {
                     Hit::occlusion(scene.any_hit(r, u32::MAX))
                 } else {
-                    let s = scene.closest_hit(r, u32::MAX);
-                    match offsets.get(s.instance as usize) {
-                        Some(&at) if s.is_hit() => Hit {
-                            prim: u32::try_from(at + u64::from(s.prim))
-                                .unwrap_or(kdray_kernel::MISS),
-                            ..s.hit()
-                        },
-                        _ => Hit::MISS,
-                    }
+                    flattened_hit(&scene.closest_hit(r, u32::MAX), offsets)
                 };
             }
         });
+}
+
+/// A scene's hit as a hit-file record, `prim` in the flattened order
+/// (`offsets`: [`scene_offsets`]); a miss record for a miss.
+fn flattened_hit(s: &kdray_kernel::SceneHit, offsets: &[u64]) -> Hit {
+    match offsets.get(s.instance as usize) {
+        Some(&at) if s.is_hit() => Hit {
+            prim: u32::try_from(at + u64::from(s.prim)).unwrap_or(kdray_kernel::MISS),
+            ..s.hit()
+        },
+        _ => Hit::MISS,
+    }
+}
+
+/// The first `k` hits of each ray through `scene` (every instance) on the
+/// current rayon pool into `hits`, `k` slots a ray, as hit-file records
+/// numbered in the flattened order ([`trace_scene`]); unused slots miss
+/// records. The scene's order (`t`, then instance, then triangle) is the
+/// flattened order's (`t`, then flattened index): instances are flattened
+/// in turn. Returns how many hits in all.
+pub fn first_hits_scene(
+    scene: &Scene<'_>,
+    offsets: &[u64],
+    rays: &[Ray],
+    hits: &mut [Hit],
+    k: usize,
+) -> usize {
+    use kdray_kernel::SceneHit;
+    use rayon::prelude::*;
+    let k = k.max(1);
+    hits.par_chunks_mut(1024 * k)
+        .zip(rays.par_chunks(1024))
+        .map(|(hs, rs)| {
+            let mut found = vec![SceneHit::MISS; k];
+            let mut total = 0;
+            for (slots, r) in hs.chunks_mut(k).zip(rs) {
+                let n = scene.first_hits(r, u32::MAX, &mut found);
+                total += n;
+                slots.fill(Hit::MISS);
+                for (slot, s) in slots.iter_mut().zip(found.iter().take(n)) {
+                    *slot = flattened_hit(s, offsets);
+                }
+            }
+            total
+        })
+        .sum()
 }
 
 /// A scene as the renderer's [`Tracer`](crate::render::Tracer): hits

@@ -9,7 +9,7 @@ use super::Scene;
 use crate::blob::{Node, MAX_DEPTH};
 use crate::geometry::{Hit, Ray, MISS};
 use crate::lanes::Span;
-use crate::triangle::ShearedRay;
+use crate::triangle::{FirstHits, Ranked, ShearedRay};
 use crate::triangle_tree::cell_ray::CellRay;
 use crate::triangle_tree::packet::Packet;
 use bytemuck::{Pod, Zeroable};
@@ -82,6 +82,32 @@ impl SceneHit {
                 v: h.v,
                 instance,
             };
+        }
+    }
+}
+
+/// A scene's first hits are ranked by `t`, then instance, then triangle.
+impl Ranked for SceneHit {
+    #[inline(always)]
+    fn t(&self) -> f32 {
+        self.t
+    }
+    #[inline(always)]
+    fn key(&self) -> u64 {
+        Self::key_of(self.prim, self.instance)
+    }
+    #[inline(always)]
+    fn key_of(prim: u32, instance: u32) -> u64 {
+        u64::from(instance) << 32 | u64::from(prim)
+    }
+    #[inline(always)]
+    fn from_hit(h: Hit, instance: u32) -> SceneHit {
+        SceneHit {
+            t: h.t,
+            prim: h.prim,
+            u: h.u,
+            v: h.v,
+            instance,
         }
     }
 }
@@ -165,6 +191,34 @@ impl Visit for ClosestVisit<'_> {
     }
 }
 
+struct FirstVisit<'r, 'o> {
+    ray: &'r Ray,
+    mask: u32,
+    first: FirstHits<'o, SceneHit>,
+    traced: Mailbox,
+}
+
+impl Visit for FirstVisit<'_, '_> {
+    #[inline(always)]
+    fn bound(&self) -> f32 {
+        self.first.bound(self.ray.tmax)
+    }
+
+    #[inline(always)]
+    fn instance(&mut self, scene: &Scene<'_>, i: u32) -> bool {
+        // An instance traced lately offered every hit up to the bound,
+        // which has only shrunk since.
+        if self.traced.seen(i) {
+            return false;
+        }
+        if let Some((inst, mesh)) = scene.selected(i, self.mask) {
+            let local = inst.local_ray(self.ray);
+            mesh.first_hits_into::<_, { MAX_DEPTH as usize }>(&local, &mut self.first, i);
+        }
+        false
+    }
+}
+
 struct AnyVisit<'r> {
     ray: &'r Ray,
     mask: u32,
@@ -240,6 +294,30 @@ impl<'a> Scene<'a> {
                 traced: Mailbox::default(),
             },
         )
+    }
+
+    /// The first `out.len()` hits of `ray` among the instances `mask`
+    /// selects, sorted by `t`, then instance, then triangle, each
+    /// instance's triangle once, written to the front of `out`; returns
+    /// how many. Bit for bit [`Scene::first_hits_brute`]; the first is
+    /// [`Scene::closest_hit`] (the mesh-level query:
+    /// [`TriangleTree::first_hits`](crate::TriangleTree::first_hits)).
+    ///
+    /// # Panics
+    /// Never. No allocation; the stack is [`MAX_DEPTH`] entries here and
+    /// one mesh walk's below.
+    pub fn first_hits(&self, ray: &Ray, mask: u32, out: &mut [SceneHit]) -> usize {
+        if out.is_empty() {
+            return 0;
+        }
+        let mut visit = FirstVisit {
+            ray,
+            mask,
+            first: FirstHits::new(out),
+            traced: Mailbox::default(),
+        };
+        self.walk(ray, &mut visit);
+        visit.first.len()
     }
 
     /// [`Scene::closest_hit`] for each active lane of a packet of 4, 8 or

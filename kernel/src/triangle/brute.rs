@@ -40,7 +40,7 @@ pub fn first_hits_brute(triangles: &[Triangle], ray: &Ray, out: &mut [Hit]) -> u
     };
     let mut first = FirstHits::new(out);
     for (i, tri) in triangles.iter().enumerate() {
-        first.offer(&sr, tri, i as u32, ray.tmin, ray.tmax);
+        first.offer(&sr, tri, (i as u32, 0), ray.tmin, ray.tmax);
     }
     first.len()
 }

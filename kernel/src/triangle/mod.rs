@@ -58,7 +58,7 @@ mod spawn;
 
 pub use brute::{any_hit_brute, closest_hit_brute, first_hits_brute};
 pub(crate) use closest::Closest;
-pub(crate) use first::FirstHits;
+pub(crate) use first::{FirstHits, Ranked};
 pub use spawn::SurfacePoint;
 
 use crate::geometry::{next_down, next_up, ray_is_valid, Bounds, Hit, Ray};

@@ -7,18 +7,19 @@ use super::counts::Tally;
 use super::walk::{LeafIter, Visit, STACK};
 use super::TriangleTree;
 use crate::geometry::{Hit, Ray};
-use crate::triangle::{dominant_axis, FirstHits, ShearedRay, Triangle};
+use crate::triangle::{dominant_axis, FirstHits, Ranked, ShearedRay, Triangle};
 
 /// The first-hits search: every triangle of a leaf against `[tmin, the
-/// buffer's bound]`.
-struct FirstVisit<'r, 'o> {
+/// buffer's bound]`, its hits tagged `tag` (a scene's instance).
+struct FirstVisit<'r, 'o, R> {
     sr: &'r ShearedRay,
     tmin: f32,
     tmax: f32,
-    first: &'r mut FirstHits<'o>,
+    tag: u32,
+    first: &'r mut FirstHits<'o, R>,
 }
 
-impl<'a, T: Tally> Visit<'a, T> for FirstVisit<'_, '_> {
+impl<'a, T: Tally, R: Ranked> Visit<'a, T> for FirstVisit<'_, '_, R> {
     #[inline(always)]
     fn bound(&self) -> f32 {
         self.first.bound(self.tmax)
@@ -29,7 +30,8 @@ impl<'a, T: Tally> Visit<'a, T> for FirstVisit<'_, '_> {
         for p in prims {
             if let Some(tri) = tris.get(p as usize) {
                 tally.triangles(1);
-                self.first.offer(self.sr, tri, p, self.tmin, self.tmax);
+                self.first
+                    .offer(self.sr, tri, (p, self.tag), self.tmin, self.tmax);
             }
         }
         false
@@ -90,21 +92,33 @@ impl TriangleTree<'_> {
         if out.is_empty() {
             return 0;
         }
+        let mut first = FirstHits::new(out);
+        self.first_hits_into::<_, DEPTH>(ray, &mut first, 0);
+        first.len()
+    }
+
+    /// Offers this tree's hits of `ray`, tagged `tag`, to `first` (a
+    /// scene's first hits, over all its instances).
+    pub(crate) fn first_hits_into<R: Ranked, const DEPTH: usize>(
+        &self,
+        ray: &Ray,
+        first: &mut FirstHits<'_, R>,
+        tag: u32,
+    ) {
         let Some(cr) = CellRay::new(ray, dominant_axis(&ray.dir), &self.bounds) else {
-            return 0;
+            return;
         };
         let Some(sr) = ShearedRay::new(ray) else {
-            return 0;
+            return;
         };
-        let mut first = FirstHits::new(out);
         let mut visit = FirstVisit {
             sr: &sr,
             tmin: ray.tmin,
             tmax: ray.tmax,
-            first: &mut first,
+            tag,
+            first,
         };
         let (lo, hi) = cr.start();
         self.walk::<(), _, DEPTH>(&cr, (0, lo, hi), &mut (), &mut visit);
-        first.len()
     }
 }

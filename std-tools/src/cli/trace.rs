@@ -4,7 +4,7 @@ use super::json::JsonObject;
 use super::{plural, thread_pool, CmdResult};
 use kdray_kernel::{Hit, Ray};
 use kdray_tools::blob::Blob;
-use kdray_tools::instances::{is_scene_blob, scene_offsets, trace_scene};
+use kdray_tools::instances::{first_hits_scene, is_scene_blob, scene_offsets, trace_scene};
 use kdray_tools::io;
 use kdray_tools::trace::{first_hits_into, trace_into, Order, PacketWidth, Query};
 use std::path::PathBuf;
@@ -23,7 +23,7 @@ pub(crate) struct Args {
     /// The first K hits of each ray instead of the closest: K records a
     /// ray in the hit file, by t then triangle index, each triangle once,
     /// unused slots miss records (docs/formats.md); K at most 1024. Single
-    /// rays, a triangle tree.
+    /// rays.
     #[arg(long, value_name = "K", conflicts_with = "any_hit")]
     first_hits: Option<usize>,
     /// Occlusion only: occluded rays get t = -inf, triangle 0xFFFFFFFE.
@@ -76,13 +76,6 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let pool = thread_pool(a.threads)?;
     let blob = Blob::read(&a.tree).map_err(|e| format!("{}: {e}", a.tree.display()))?;
     if is_scene_blob(blob.as_bytes()) {
-        if a.first_hits.is_some() {
-            return Err(format!(
-                "{}: --first-hits takes a triangle tree, not a scene",
-                a.tree.display()
-            )
-            .into());
-        }
         return trace_scene_blob(a, &pool, &blob);
     }
     let tree = blob
@@ -90,7 +83,9 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         .map_err(|e| format!("{}: invalid tree blob: {e}", a.tree.display()))?;
     let rays: Vec<Ray> = io::read_records(&a.rays, "ray")?;
     if let Some(k) = a.first_hits {
-        return trace_first_hits(a, &pool, &tree, &rays, k);
+        return trace_first_hits(a, &pool, rays.len(), k, |hits| {
+            first_hits_into(&tree, &rays, hits, k)
+        });
     }
     let mut hits = vec![Hit::MISS; rays.len()];
     let query = if a.any_hit {
@@ -172,9 +167,9 @@ const MAX_FIRST_HITS: usize = 1024;
 fn trace_first_hits(
     a: &Args,
     pool: &rayon::ThreadPool,
-    tree: &kdray_kernel::TriangleTree<'_>,
-    rays: &[Ray],
+    rays: usize,
     k: usize,
+    fill: impl Fn(&mut [Hit]) -> usize + Send + Sync,
 ) -> CmdResult {
     if !(1..=MAX_FIRST_HITS).contains(&k) {
         return Err(format!("--first-hits {k}: must be 1 to {MAX_FIRST_HITS}").into());
@@ -182,19 +177,19 @@ fn trace_first_hits(
     if a.packet != PacketWidth::One {
         return Err("--first-hits traces single rays: leave --packet at 1".into());
     }
-    let slots = rays.len().saturating_mul(k);
+    let slots = rays.saturating_mul(k);
     let mut hits = Vec::new();
     hits.try_reserve_exact(slots).map_err(|_| {
         format!(
             "--first-hits {k}: no memory for {slots} hit records ({} rays)",
-            rays.len()
+            rays
         )
     })?;
     hits.resize(slots, Hit::MISS);
     let (mut seconds, mut found) = (f64::INFINITY, 0);
     for _ in 0..a.repeat {
         let t = Instant::now();
-        found = pool.install(|| first_hits_into(tree, rays, &mut hits, k));
+        found = pool.install(|| fill(&mut hits));
         seconds = seconds.min(t.elapsed().as_secs_f64());
     }
     io::write_records(&a.output, &hits)?;
@@ -202,10 +197,10 @@ fn trace_first_hits(
         .chunks(k)
         .filter(|h| h[0].prim != kdray_kernel::MISS)
         .count();
-    let mrays = rays.len() as f64 / seconds.max(1e-12) / 1e6;
+    let mrays = rays as f64 / seconds.max(1e-12) / 1e6;
     if a.json {
         let j = JsonObject::default()
-            .num("rays", rays.len() as f64)
+            .num("rays", rays as f64)
             .num("hits", hit_rays as f64)
             .num("first_hits", k as f64)
             .num("hits_found", found as f64)
@@ -217,7 +212,7 @@ fn trace_first_hits(
     } else {
         say!(
             "traced the first {k} hits of {} rays ({hit_rays} hit, {found} hits in all) on {}, best of {} in {seconds:.3} s: {mrays:.2} Mrays/s (excluding file I/O)",
-            rays.len(),
+            rays,
             plural(pool.current_num_threads(), "thread"),
             a.repeat,
         );
@@ -235,6 +230,11 @@ fn trace_scene_blob(a: &Args, pool: &rayon::ThreadPool, blob: &Blob) -> CmdResul
         .map_err(|e| format!("{}: invalid scene blob: {e}", a.tree.display()))?;
     let offsets = scene_offsets(&scene);
     let rays: Vec<Ray> = io::read_records(&a.rays, "ray")?;
+    if let Some(k) = a.first_hits {
+        return trace_first_hits(a, pool, rays.len(), k, |hits| {
+            first_hits_scene(&scene, &offsets, &rays, hits, k)
+        });
+    }
     let mut hits = vec![Hit::MISS; rays.len()];
     let mut seconds = f64::INFINITY;
     for _ in 0..a.repeat {

@@ -65,8 +65,8 @@ impl Order {
     /// 16,384 rays (and at most `u32::MAX`), scattered ([`TriangleTree::rays_scattered`])
     /// in most of eight blocks of 256 taken across it. `Auto` keeps
     /// closest-hit batches in their order: sorted by origin and direction,
-    /// `matrix.sh`'s random rays traced 1.4x faster over the bunny and
-    /// 1.75x over sponza (the sorted file traced as given), but sorting
+    /// `matrix.sh`'s random rays traced 1.3-1.4x faster over the bunny and
+    /// 1.6-1.7x over sponza (the sorted file traced as given), but sorting
     /// them took about as long as it saved (one core, interleaved, 1M
     /// rays: bunny 0.74-1.13x, sponza 0.97-1.27x, the sort, the gather of
     /// each chunk and the scatter of the hits included); the kernel walks

@@ -4,7 +4,7 @@
 
 use super::{Scene, SceneHit};
 use crate::geometry::{ray_is_valid, Ray};
-use crate::triangle::{any_hit_brute, closest_hit_brute, FirstHits, ShearedRay};
+use crate::triangle::{any_hit_brute, closest_hit_brute, offer_every_triangle, FirstHits};
 
 impl Scene<'_> {
     /// The brute-force closest hit: every selected instance, every
@@ -40,19 +40,13 @@ impl Scene<'_> {
     /// triangle; the first `out.len()` by `t`, then instance, then
     /// triangle, written to the front of `out`; returns how many. What
     /// [`Scene::first_hits`] is held to.
+    #[must_use]
     pub fn first_hits_brute(&self, ray: &Ray, mask: u32, out: &mut [SceneHit]) -> usize {
         let mut first = FirstHits::new(out);
         if ray_is_valid(ray) {
             for i in 0..self.instances.len() as u32 {
-                let Some((inst, mesh)) = self.selected(i, mask) else {
-                    continue;
-                };
-                let local = inst.local_ray(ray);
-                let Some(sr) = ShearedRay::new(&local) else {
-                    continue;
-                };
-                for (p, tri) in mesh.triangles().iter().enumerate() {
-                    first.offer(&sr, tri, (p as u32, i), local.tmin, local.tmax);
+                if let Some((inst, mesh)) = self.selected(i, mask) {
+                    offer_every_triangle(&mut first, mesh.triangles(), &inst.local_ray(ray), i);
                 }
             }
         }

@@ -306,6 +306,7 @@ impl<'a> Scene<'a> {
     /// # Panics
     /// Never. No allocation; the stack is [`MAX_DEPTH`] entries here and
     /// one mesh walk's below.
+    #[must_use]
     pub fn first_hits(&self, ray: &Ray, mask: u32, out: &mut [SceneHit]) -> usize {
         if out.is_empty() {
             return 0;

@@ -1,7 +1,7 @@
 //! The brute-force oracles: every triangle tested, by the same test and the
 //! same tie rule as the tree. What every traversal is held to.
 
-use super::{Closest, FirstHits, ShearedRay, Triangle};
+use super::{Closest, FirstHits, Ranked, ShearedRay, Triangle};
 use crate::geometry::{Hit, Ray};
 
 /// The brute-force answer: the closest hit of `ray` over all of
@@ -34,13 +34,25 @@ pub fn any_hit_brute(triangles: &[Triangle], ray: &Ray) -> bool {
 /// `[tmin, tmax]` over all of `triangles`, sorted by `t` and at equal `t`
 /// by the lower triangle index, written to the front of `out`; returns
 /// how many. The oracle [`TriangleTree::first_hits`](crate::TriangleTree::first_hits) is held to.
+#[must_use]
 pub fn first_hits_brute(triangles: &[Triangle], ray: &Ray, out: &mut [Hit]) -> usize {
-    let Some(sr) = ShearedRay::new(ray) else {
-        return 0;
-    };
     let mut first = FirstHits::new(out);
-    for (i, tri) in triangles.iter().enumerate() {
-        first.offer(&sr, tri, (i as u32, 0), ray.tmin, ray.tmax);
-    }
+    offer_every_triangle(&mut first, triangles, ray, 0);
     first.len()
+}
+
+/// Offers every triangle of the mesh tagged `tag` (a scene's instance;
+/// `ray` in the mesh's space) to `first`: the brute-force first hits of a
+/// mesh and of a scene.
+pub(crate) fn offer_every_triangle<R: Ranked>(
+    first: &mut FirstHits<'_, R>,
+    triangles: &[Triangle],
+    ray: &Ray,
+    tag: u32,
+) {
+    if let Some(sr) = ShearedRay::new(ray) {
+        for (i, tri) in triangles.iter().enumerate() {
+            first.offer(&sr, tri, (i as u32, tag), ray.tmin, ray.tmax);
+        }
+    }
 }

@@ -56,6 +56,7 @@ pub(crate) mod lanes;
 mod plane_x86;
 mod spawn;
 
+pub(crate) use brute::offer_every_triangle;
 pub use brute::{any_hit_brute, closest_hit_brute, first_hits_brute};
 pub(crate) use closest::Closest;
 pub(crate) use first::{FirstHits, Ranked};

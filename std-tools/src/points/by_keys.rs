@@ -35,7 +35,13 @@
 //! 129.5M instructions for 158k -> 140k mispredicts (callgrind); the keys
 //! counted into 1,024 buckets over the node's extent and selected among
 //! the median's bucket only (counting alone costs more than `std`'s
-//! selection: 3.2 against 1.9 ns a key).
+//! selection: 3.2 against 1.9 ns a key); below 1,024 or 8,192 `f32`
+//! points, no point moved at all (each node selecting packed `(key,
+//! position)` words, which break ties by themselves, its box and keys
+//! read through the positions, only leaves writing their runs): the knn
+//! bench's builds 8-D duplicates 0.92x -> 0.83-0.88x kiddo, 16-D
+//! 0.89-0.96x -> 0.81-0.99x, 2-D 1.02x -> 0.79x (gathers by position
+//! cost more than the moves they save).
 
 use super::store::{bounds_of, coordinate_order, leaf_node, put_leaf_major, Store};
 use kdray_kernel::{PointNode, Scalar};

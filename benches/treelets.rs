@@ -21,7 +21,9 @@
 //!   near bits), goes on with the nearest live exit and pushes the rest
 //!   with one compress each. Leaves and empty cells inside a treelet fall
 //!   through planes at `+inf` (the whole cell below, for either sign of
-//!   the direction). AVX-512VL; rays walked alone, or four in turns.
+//!   the direction). AVX-512VL, and AVX2 (masks by compare and blend,
+//!   the compress a permute from a table); rays walked alone, or four in
+//!   turns.
 //!
 //! ```sh
 //! taskset -c 0 cargo bench --bench treelets
@@ -30,7 +32,7 @@
 //! Results (docs/results.md, "Seven planes a step"): one ray at a time
 //! the treelet walk wins only on random rays, whose scalar steps
 //! mispredict (0.44-1.24x the scalar walk's speed); four rays in turns,
-//! 1.41-1.77x on random rays and 0.63-1.19x on camera rays.
+//! 1.4-1.8x on random rays and 0.63-1.3x on camera rays, at either level.
 
 #[cfg(target_arch = "x86_64")]
 mod walks {
@@ -221,6 +223,25 @@ mod walks {
     }
 
     const DEAD: u32 = u32::MAX;
+
+    /// For each 8-bit mask, the indices of its set bits, lowest first: the
+    /// permute that packs those lanes to the front.
+    static COMPRESS: [[u32; 8]; 256] = {
+        let mut t = [[0u32; 8]; 256];
+        let mut m = 0;
+        while m < 256 {
+            let (mut lane, mut at) = (0, 0);
+            while lane < 8 {
+                if m >> lane & 1 == 1 {
+                    t[m][at] = lane as u32;
+                    at += 1;
+                }
+                lane += 1;
+            }
+            m += 1;
+        }
+        t
+    };
     const LEAF: u32 = 1 << 31;
 
     #[derive(Clone, Copy)]
@@ -332,11 +353,11 @@ mod walks {
         /// # Safety
         /// The processor has AVX2, AVX-512F and AVX-512VL.
         #[inline(always)]
-        pub(crate) unsafe fn step(&mut self, ts: &[Treelet]) {
+        pub(crate) unsafe fn step<const AVX512: bool>(&mut self, ts: &[Treelet]) {
             let cur = self.now.0;
             if cur & LEAF != 0 {
                 self.seen.add(cur & !LEAF);
-            } else if self.treelet(&ts[cur as usize]) {
+            } else if self.treelet::<AVX512>(&ts[cur as usize]) {
                 return;
             }
             let (refs, los, his) = &self.pending;
@@ -351,9 +372,11 @@ mod walks {
             self.done = true;
         }
 
-        /// The vector step; `false` when no exit is live.
+        /// The vector step; `false` when no exit is live. Without
+        /// AVX-512 the lane masks are compares and blends, the compress a
+        /// permute from [`COMPRESS`].
         #[inline(always)]
-        unsafe fn treelet(&mut self, t: &Treelet) -> bool {
+        unsafe fn treelet<const AVX512: bool>(&mut self, t: &Treelet) -> bool {
             // SAFETY (every load and store below): the pointers come from
             // arrays of 8 lanes, or from 8-lane slices of the pending
             // arrays (bounds-checked); the caller has the target features.
@@ -392,24 +415,43 @@ mod walks {
             );
             let slack = _mm256_set1_ps(self.ray.s2);
             let (mut lo, mut hi) = (_mm256_set1_ps(self.now.1), _mm256_set1_ps(self.now.2));
-            let mut live: __mmask8 = 0xff;
+            let mut live: u8 = 0xff;
             // The near side at each level, as lanes.
             for (near, t) in [
-                (0b1111_0000, _mm256_permutevar8x32_ps(ts, zero)),
+                (0b1111_0000u8, _mm256_permutevar8x32_ps(ts, zero)),
                 (0b1100_1100, _mm256_permutevar8x32_ps(ts, s1)),
                 (0b1010_1010, _mm256_permutevar8x32_ps(ts, s2)),
             ] {
                 // As the scalar step: the near child when !(t < lo), the
                 // far one when !(t > hi); a NaN visits both.
-                live &= _mm256_mask_cmp_ps_mask(near, t, lo, _CMP_NLT_UQ)
-                    | _mm256_mask_cmp_ps_mask(!near, t, hi, _CMP_NGT_UQ);
-                let new_hi = _mm256_mask_min_ps(hi, near, _mm256_add_ps(t, slack), hi);
-                lo = _mm256_mask_max_ps(lo, !near, _mm256_sub_ps(t, slack), lo);
-                hi = new_hi;
+                let (up, down) = (_mm256_add_ps(t, slack), _mm256_sub_ps(t, slack));
+                if AVX512 {
+                    live &= _mm256_mask_cmp_ps_mask(near, t, lo, _CMP_NLT_UQ)
+                        | _mm256_mask_cmp_ps_mask(!near, t, hi, _CMP_NGT_UQ);
+                    let new_hi = _mm256_mask_min_ps(hi, near, up, hi);
+                    lo = _mm256_mask_max_ps(lo, !near, down, lo);
+                    hi = new_hi;
+                } else {
+                    let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+                    let near_lanes = _mm256_castsi256_ps(_mm256_cmpeq_epi32(
+                        _mm256_and_si256(_mm256_set1_epi32(i32::from(near)), bits),
+                        bits,
+                    ));
+                    let pass = _mm256_blendv_ps(
+                        _mm256_cmp_ps(t, hi, _CMP_NGT_UQ),
+                        _mm256_cmp_ps(t, lo, _CMP_NLT_UQ),
+                        near_lanes,
+                    );
+                    live &= _mm256_movemask_ps(pass) as u8;
+                    let new_hi = _mm256_blendv_ps(hi, _mm256_min_ps(up, hi), near_lanes);
+                    lo = _mm256_blendv_ps(_mm256_max_ps(down, lo), lo, near_lanes);
+                    hi = new_hi;
+                }
             }
             let exits =
                 _mm256_permutevar8x32_epi32(_mm256_load_si256(t.exit.as_ptr().cast()), exit);
-            live &= _mm256_cmpneq_epi32_mask(exits, _mm256_set1_epi32(DEAD as i32));
+            let dead = _mm256_cmpeq_epi32(exits, _mm256_set1_epi32(DEAD as i32));
+            live &= !(_mm256_movemask_ps(_mm256_castsi256_ps(dead)) as u8);
             if live == 0 {
                 return false;
             }
@@ -417,16 +459,23 @@ mod walks {
             let rest = live & !(1u8 << j);
             let sp = self.sp;
             let (refs, los, his) = &mut self.pending;
-            let r = _mm256_maskz_compress_epi32(rest, exits);
+            let (r, l, h) = if AVX512 {
+                (
+                    _mm256_maskz_compress_epi32(rest, exits),
+                    _mm256_maskz_compress_ps(rest, lo),
+                    _mm256_maskz_compress_ps(rest, hi),
+                )
+            } else {
+                let order = _mm256_loadu_si256(COMPRESS[usize::from(rest)].as_ptr().cast());
+                (
+                    _mm256_permutevar8x32_epi32(exits, order),
+                    _mm256_permutevar8x32_ps(lo, order),
+                    _mm256_permutevar8x32_ps(hi, order),
+                )
+            };
             _mm256_storeu_si256(refs[sp..sp + 8].as_mut_ptr().cast(), r);
-            _mm256_storeu_ps(
-                los[sp..sp + 8].as_mut_ptr(),
-                _mm256_maskz_compress_ps(rest, lo),
-            );
-            _mm256_storeu_ps(
-                his[sp..sp + 8].as_mut_ptr(),
-                _mm256_maskz_compress_ps(rest, hi),
-            );
+            _mm256_storeu_ps(los[sp..sp + 8].as_mut_ptr(), l);
+            _mm256_storeu_ps(his[sp..sp + 8].as_mut_ptr(), h);
             self.sp = sp + rest.count_ones() as usize;
             let lane = _mm256_set1_epi32(j as i32);
             self.now = (
@@ -490,7 +539,30 @@ mod walks {
             walkers,
             |w, st| w.start(st, root),
             // SAFETY: this function's features are the step's.
-            |w| unsafe { w.step(ts) },
+            |w| unsafe { w.step::<true>(ts) },
+            |w| (w.done, w.seen),
+            seen,
+        );
+    }
+
+    /// [`seven_in_turns`] at the AVX2 level.
+    ///
+    /// # Safety
+    /// The processor has AVX2.
+    #[target_feature(enable = "avx2,bmi1,lzcnt,popcnt")]
+    pub(crate) unsafe fn seven_in_turns_avx2<const N: usize>(
+        starts: &[Start],
+        walkers: &mut [Seven; N],
+        ts: &[Treelet],
+        root: u32,
+        seen: impl FnMut(usize, Seen),
+    ) {
+        in_turns(
+            starts,
+            walkers,
+            |w, st| w.start(st, root),
+            // SAFETY: this function's features are the step's.
+            |w| unsafe { w.step::<false>(ts) },
             |w| (w.done, w.seen),
             seen,
         );
@@ -557,7 +629,7 @@ fn main() {
             }
             let mut one = [Seven::new()];
             let mut four = [Seven::new(), Seven::new(), Seven::new(), Seven::new()];
-            let mut time = [f64::INFINITY; 3];
+            let mut time = [f64::INFINITY; 4];
             for round in 0..7 {
                 let check = round == 0;
                 let t = Instant::now();
@@ -575,15 +647,21 @@ fn main() {
                 // SAFETY: as above.
                 unsafe { seven_in_turns(&starts, &mut four, &ts, root, &mut got) };
                 time[2] = time[2].min(t.elapsed().as_secs_f64());
+                let t = Instant::now();
+                // SAFETY: as above (AVX2 is among them).
+                unsafe { seven_in_turns_avx2(&starts, &mut four, &ts, root, &mut got) };
+                time[3] = time[3].min(t.elapsed().as_secs_f64());
             }
             let n = rays.len() as f64 / 1e9;
             println!(
-                "{name:>15} {kind}: scalar {:.1}, treelets alone {:.1} ({:.2}x), four in turns {:.1} ({:.2}x); {} treelets, {} nodes",
+                "{name:>15} {kind}: scalar {:.1}, treelets alone {:.1} ({:.2}x), four in turns {:.1} ({:.2}x), at AVX2 {:.1} ({:.2}x); {} treelets, {} nodes",
                 time[0] / n,
                 time[1] / n,
                 time[0] / time[1],
                 time[2] / n,
                 time[0] / time[2],
+                time[3] / n,
+                time[0] / time[3],
                 ts.len(),
                 nodes.len()
             );

@@ -18,7 +18,7 @@
 use kdray::kernel::wire::{blob_checksum, Header, ENDIAN_CHECK, KIND_TRIANGLES, MAGIC, VERSION};
 use kdray::kernel::{
     any_hit_brute, closest_hit_brute, first_hits_brute, Hit, MortonGrid, Node, Packet, Packet4,
-    Packet8, PacketWidth, Ray, RayKey, SceneHit, ShallowTree, Triangle, TriangleTree,
+    Packet8, PacketWidth, Ray, RayKey, SceneHit, ShallowTree, Treelet, Triangle, TriangleTree,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
@@ -336,9 +336,12 @@ pub fn tree_vs_brute(data: &[u8]) {
         .iter()
         .map(|(k, b)| (*k, b.tree().expect("the builder's blob validates")))
         .collect();
+    let (mut rays, mut wants) = (Vec::new(), Vec::new());
     while !r.rest().is_empty() {
         let ray = r.ray();
         let want = closest_hit_brute(&tris, &ray);
+        rays.push(ray);
+        wants.push(want);
         let want_any = any_hit_brute(&tris, &ray);
         // The first 4 hits: sorted, each triangle once, led by the closest.
         let mut first = [Hit::MISS; 4];
@@ -369,6 +372,22 @@ pub fn tree_vs_brute(data: &[u8]) {
                 assert_eq!(got.bits(), want.bits(), "{kind:?} shallow: {ray:?}");
                 assert_eq!(shallow.any_hit(&ray), want_any, "{kind:?} shallow any");
             }
+        }
+    }
+    // All the rays walked in turns through the treelets (7 planes a step).
+    for (kind, tree) in &trees {
+        let mut lines = vec![Treelet::default(); tree.treelet_count()];
+        let lined = tree
+            .treelets_into(&mut lines)
+            .expect("room for every treelet");
+        let mut got = vec![Hit::MISS; rays.len()];
+        lined.closest_hits_scattered(&rays, &mut got);
+        for ((ray, want), got) in rays.iter().zip(&wants).zip(&got) {
+            assert_eq!(
+                got.bits(),
+                want.bits(),
+                "{kind:?} treelets: {ray:?} {tris:?}"
+            );
         }
     }
 }

@@ -137,5 +137,7 @@ pub use triangle::{
     any_hit_brute, closest_hit_brute, first_hits_brute, SurfacePoint, Triangle, MAX_COORD,
 };
 pub use triangle_tree::packet::{Packet, Packet16, Packet4, Packet8, PacketWidth};
-pub use triangle_tree::{ShallowTree, TraversalCounts, TriangleTree};
+pub use triangle_tree::{
+    ShallowTree, TraversalCounts, Treelet, TreeletBufferTooSmall, TriangleTree,
+};
 pub use wire::Aligned;

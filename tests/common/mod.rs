@@ -2,7 +2,9 @@
 #![allow(missing_docs)]
 #![allow(dead_code)]
 
-use kdray::kernel::{any_hit_brute, closest_hit_brute, first_hits_brute, Hit, Ray, Triangle};
+use kdray::kernel::{
+    any_hit_brute, closest_hit_brute, first_hits_brute, Hit, Ray, Treelet, Triangle,
+};
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use std::path::PathBuf;
@@ -79,6 +81,27 @@ pub(crate) fn assert_matches_brute(tris: &[Triangle], rays: &[Ray]) {
     for kind in BuilderKind::ALL {
         let blob = blob(tris, kind);
         let tree = blob.tree().expect("built tree validates");
+        // The rays walked in turns, through the treelets (7 planes a step)
+        // and with the one-plane walk, whatever their order.
+        let count = tree.treelet_count();
+        let mut lines = vec![Treelet::default(); count];
+        let with_lines = tree
+            .treelets_into(&mut lines)
+            .expect("room for every treelet");
+        for t in [tree, with_lines] {
+            let mut scattered = vec![Hit::MISS; rays.len()];
+            t.closest_hits_scattered(rays, &mut scattered);
+            for (i, ((r, (closest, ..)), got)) in rays.iter().zip(&want).zip(&scattered).enumerate()
+            {
+                assert_eq!(
+                    got.bits(),
+                    closest.bits(),
+                    "builder {}: ray {i} {r:?} in turns ({} treelets): {got:?} != brute {closest:?}",
+                    kind.name(),
+                    count
+                );
+            }
+        }
         for (i, (r, (closest, any, first))) in rays.iter().zip(&want).enumerate() {
             let got = tree.closest_hit(r);
             assert_eq!(

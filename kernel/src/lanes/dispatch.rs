@@ -18,6 +18,9 @@ pub(crate) trait Level {
     type X8: Lanes<8>;
     /// 16 lanes.
     type X16: Lanes<16>;
+    /// Whether the level has x86-64-v3 (AVX2): jobs with intrinsics of
+    /// their own run them only then.
+    const X86_V3: bool = false;
 }
 
 /// The build's own target features: `wide`'s vectors as it compiled them.
@@ -39,6 +42,7 @@ impl Level for Avx2 {
     type X4 = wide::f32x4;
     type X8 = super::x86::Avx8;
     type X16 = wide::f32x16;
+    const X86_V3: bool = true;
 }
 
 /// x86-64-v4: 16 lanes in one AVX-512 register.
@@ -50,6 +54,7 @@ impl Level for Avx512 {
     type X4 = wide::f32x4;
     type X8 = super::x86::Avx8;
     type X16 = super::x86::Avx16;
+    const X86_V3: bool = true;
 }
 
 /// Work generic over the level's lane types.

@@ -10,7 +10,10 @@ mod leaf_lanes;
 pub(crate) mod packet;
 mod shallow;
 mod stream;
+mod treelets;
 mod walk;
+
+pub use treelets::{Treelet, TreeletBufferTooSmall};
 
 pub use counts::TraversalCounts;
 pub use shallow::ShallowTree;
@@ -33,6 +36,9 @@ pub struct TriangleTree<'a> {
     pub(crate) triangles: &'a [Triangle],
     pub(crate) bounds: Bounds,
     pub(crate) max_depth: u32,
+    /// The treelets scattered rays walk, if any
+    /// ([`TriangleTree::treelets_into`]); empty for a tree as loaded.
+    pub(crate) lines: &'a [Treelet],
 }
 
 impl<'a> TriangleTree<'a> {
@@ -102,6 +108,7 @@ impl<'a> TriangleTree<'a> {
                 max: header.bounds_max,
             },
             max_depth: header.max_depth,
+            lines: &[],
         })
     }
 
@@ -202,6 +209,7 @@ impl<'a> TriangleTree<'a> {
             triangles,
             bounds,
             max_depth,
+            lines: &[],
         })
     }
 

@@ -46,7 +46,7 @@ impl<'a> TriangleTree<'a> {
     /// Prefetches what the walk reads at `node` next: an interior node's
     /// child pair, a leaf's run of primitive indices (or its one triangle).
     #[inline(always)]
-    fn prefetch_node(&self, node: Node) {
+    pub(super) fn prefetch_node(&self, node: Node) {
         let at = node.upper() as usize;
         if !node.is_leaf() {
             if let Some(n) = self.nodes.get(at) {

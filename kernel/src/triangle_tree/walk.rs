@@ -674,10 +674,22 @@ mod tests {
         // the far cells pushed at depth 1), one is refused.
         let shallow = ShallowTree::<2>::new(tree).unwrap();
         assert!(ShallowTree::<1>::new(tree).is_err());
+        // One treelet holds the whole tree (its four leaves fall through
+        // to exits); rays walked through it in turns answer as one by one.
+        assert_eq!(tree.treelet_count(), 1);
+        assert!(tree.treelets_into(&mut []).is_err());
+        let mut lines = [crate::Treelet::default(); 2];
+        let lined = tree.treelets_into(&mut lines).unwrap();
+        let mut rays = [Ray {
+            origin: [0.0; 3],
+            tmin: 0.0,
+            dir: [1.0; 3],
+            tmax: f32::INFINITY,
+        }; 200];
         let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
         let mut f = || rng.f();
         let mut hits = 0;
-        for k in 0..200 {
+        for (k, slot) in rays.iter_mut().enumerate() {
             let origin = [f() * 1.4 - 0.2, f(), f()];
             let mut dir = [f() - 0.5, f() - 0.5, f() - 0.5];
             if k % 5 == 0 {
@@ -696,11 +708,17 @@ mod tests {
             assert_eq!(tree.any_hit(&ray), any, "{ray:?}");
             assert_eq!(shallow.closest_hit(&ray).bits(), want.bits(), "{ray:?}");
             assert_eq!(shallow.any_hit(&ray), any, "{ray:?}");
+            *slot = ray;
         }
         assert!(
             hits > 20,
             "only {hits} hits: the test would not see a wrong walk"
         );
+        let mut scattered = [Hit::MISS; 200];
+        lined.closest_hits_scattered(&rays, &mut scattered);
+        for (ray, got) in rays.iter().zip(&scattered) {
+            assert_eq!(got.bits(), tree.closest_hit(ray).bits(), "{ray:?}");
+        }
         // Shadow rays in the order of their nearby origins, towards one
         // light, some stopped short (`tmax`): remembering the last
         // occluder answers as the walk does, names a triangle that hits,

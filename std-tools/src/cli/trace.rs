@@ -2,7 +2,7 @@
 
 use super::json::JsonObject;
 use super::{plural, thread_pool, CmdResult};
-use kdray_kernel::{Hit, Ray};
+use kdray_kernel::{Hit, Ray, Treelet};
 use kdray_tools::blob::Blob;
 use kdray_tools::instances::{first_hits_scene, is_scene_blob, scene_offsets, trace_scene};
 use kdray_tools::io;
@@ -92,6 +92,16 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         Query::Any
     } else {
         Query::Closest
+    };
+    // Scattered closest-hit rays walk the tree's treelets (3 levels a
+    // step); any hit keeps the one-plane walk.
+    let mut lines = Vec::new();
+    let tree = if query == Query::Closest {
+        lines.resize(tree.treelet_count(), Treelet::default());
+        tree.treelets_into(&mut lines)
+            .map_err(|e| format!("{}: {e}", a.tree.display()))?
+    } else {
+        tree
     };
     // The best of `repeat` passes, as the anchors report theirs.
     let mut seconds = f64::INFINITY;

@@ -434,7 +434,9 @@ impl<'a> TriangleTree<'a> {
         // rays walked in turns (`stream.rs`). Blocks hold whole packets of
         // every width, so the others are packed as the slice is.
         let mut memo = Q::Memo::default();
-        let turns = Q::STREAM.filter(|_| IN_TURNS && self.data_bytes() > TURNS_MIN_BYTES);
+        let turns = Q::STREAM.filter(|_| {
+            IN_TURNS && (self.data_bytes() > TURNS_MIN_BYTES || !self.lines.is_empty())
+        });
         for (rays, out) in rays.chunks(BLOCK).zip(out.chunks_mut(BLOCK)) {
             if let Some(stream) = turns.filter(|_| scattered(rays, &self.bounds)) {
                 stream(self, rays, out);
@@ -471,7 +473,7 @@ impl TriangleTree<'_> {
     }
 
     /// The bytes a walk reads from: nodes, primitive indices, triangles.
-    fn data_bytes(&self) -> usize {
+    pub(super) fn data_bytes(&self) -> usize {
         core::mem::size_of_val(self.nodes)
             + core::mem::size_of_val(self.prims)
             + core::mem::size_of_val(self.triangles)
@@ -498,7 +500,7 @@ const IN_TURNS: bool = cfg!(target_arch = "x86_64");
 /// they end after 8.3 steps, in the top of the tree, which stays cached;
 /// the bunny's take 11.3 and gain 1.05-1.14x. Under `cfg(fuzzing)` every tree qualifies, so the fuzz
 /// targets' small trees reach the walk in turns.
-const TURNS_MIN_BYTES: usize = if cfg!(fuzzing) { 0 } else { 1 << 20 };
+pub(super) const TURNS_MIN_BYTES: usize = if cfg!(fuzzing) { 0 } else { 1 << 20 };
 
 /// Whether consecutive rays of `rays` start far apart: on average more
 /// than 1/16 of the scene's largest extent (largest coordinate difference),
@@ -617,7 +619,8 @@ impl SliceQuery for ClosestHit {
     fn one(tree: &TriangleTree<'_>, ray: &Ray) -> Hit {
         tree.closest_hit(ray)
     }
-    const STREAM: Option<Stream<Hit>> = Some(|tree, rays, out| tree.closest_hits_stream(rays, out));
+    const STREAM: Option<Stream<Hit>> =
+        Some(|tree, rays, out| tree.closest_hits_scattered(rays, out));
     #[inline(always)]
     fn lanes<V: Lanes<N>, const N: usize>(
         tree: &TriangleTree<'_>,

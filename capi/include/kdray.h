@@ -252,6 +252,14 @@ typedef struct {
 // The hits of a packet of 16 rays.
 typedef KdrayHitN_16 KdrayHit16;
 
+// One 64-byte treelet of a triangle tree (`kdray_triangles_treelets`):
+// contents private to the library. Arrays of them must be 64-byte aligned
+// (`aligned_alloc(64, n * sizeof(KdrayTreelet))`).
+typedef struct {
+  // Private to the library.
+  uint32_t opaque[16];
+} KdrayTreelet;
+
 // An opened scene, as [`KdrayTriangleTree`] is for one mesh; opened by
 // `kdray_scene_open` on a scene blob (`kdray build --instances`).
 typedef struct {
@@ -643,6 +651,31 @@ KdrayStatus kdray_any_hits_by_origin(const KdrayTriangleTree *tree,
                                      size_t count,
                                      uint64_t *scratch,
                                      size_t scratch_count);
+
+// Gives `*tree` its treelets, written into `treelets`: the tree
+// regrouped three levels to a 64-byte line, which streams of scattered
+// rays (`kdray_closest_hits` over bounce rays, random rays) then walk 7
+// split planes at a time, four rays in turns, on a processor with AVX2:
+// the same answers, bit for bit, 1.1-1.5x faster on random rays. Coherent
+// rays (camera tiles) and the other queries are unchanged. `*needed` is
+// always set to the number of treelets the tree has; with `capacity`
+// below it the call returns `KDRAY_STATUS_BUFFER_TOO_SMALL` and changes
+// nothing else (call with `capacity` 0 and `treelets` null to ask).
+//
+// # Preconditions
+// - `tree`: as `kdray_closest_hit`, writable.
+// - `needed`: non-null and aligned.
+// - `treelets`: with `capacity` at least `*needed`: non-null, 64-byte
+//   aligned (else `KDRAY_STATUS_MISALIGNED`), `capacity` writable
+//   records that stay alive and unchanged for as long as `*tree` (or a
+//   copy) is used.
+//
+// # Safety
+// As the preconditions.
+KdrayStatus kdray_triangles_treelets(KdrayTriangleTree *tree,
+                                     KdrayTreelet *treelets,
+                                     size_t capacity,
+                                     size_t *needed);
 
 // The first hits of `*ray` in `*tree` along the ray, at most
 // `capacity`: `hits[0..*count]`, sorted by `t` in `[tnear, tfar]` and at

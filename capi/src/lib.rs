@@ -37,9 +37,9 @@ pub use points::{
 pub use rays::{
     kdray_any_hit, kdray_any_hit16, kdray_any_hit4, kdray_any_hit8, kdray_any_hits,
     kdray_any_hits_by_origin, kdray_closest_hit, kdray_closest_hit16, kdray_closest_hit4,
-    kdray_closest_hit8, kdray_closest_hits, kdray_first_hits, kdray_triangles_open, KdrayHit,
-    KdrayHit16, KdrayHit4, KdrayHit8, KdrayHitN, KdrayRay, KdrayRay16, KdrayRay4, KdrayRay8,
-    KdrayRayN, KDRAY_MISS, KDRAY_OCCLUDED,
+    kdray_closest_hit8, kdray_closest_hits, kdray_first_hits, kdray_triangles_open,
+    kdray_triangles_treelets, KdrayHit, KdrayHit16, KdrayHit4, KdrayHit8, KdrayHitN, KdrayRay,
+    KdrayRay16, KdrayRay4, KdrayRay8, KdrayRayN, KdrayTreelet, KDRAY_MISS, KDRAY_OCCLUDED,
 };
 pub use scenes::{
     kdray_scene_any_hit, kdray_scene_closest_hit, kdray_scene_first_hits, kdray_scene_open,

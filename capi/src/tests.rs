@@ -696,3 +696,73 @@ fn a_scene_answers_as_the_kernel_and_a_tree_handle_is_not_a_scene() {
         KdrayStatus::NotOpen
     );
 }
+
+#[test]
+fn treelets_give_a_stream_the_same_answers() {
+    // A tree of several levels (the cube is one leaf): a soup of small
+    // triangles, its blob kept for the handle's life.
+    let mut state = 0x9E37_79B9_u32;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 17;
+        state ^= state << 5;
+        (state >> 8) as f32 / (1 << 24) as f32
+    };
+    let tris: Vec<kdray_kernel::Triangle> = (0..3000)
+        .map(|_| {
+            let c = [next(), next(), next()];
+            kdray_kernel::Triangle {
+                v: core::array::from_fn(|_| core::array::from_fn(|a| c[a] + 0.05 * next())),
+            }
+        })
+        .collect();
+    let built = kdray_tools::builders::build(
+        &tris,
+        kdray_tools::builders::BuilderKind::default(),
+        &kdray_tools::builders::BuildParams::default(),
+    )
+    .unwrap();
+    let blob: &'static kdray_tools::blob::Blob = std::boxed::Box::leak(std::boxed::Box::new(
+        kdray_tools::blob::write_triangle_tree(&built, &tris).unwrap(),
+    ));
+    let bytes = blob.as_bytes();
+    let mut tree = CLOSED;
+    // SAFETY: a live handle and a blob that lives as long as the test.
+    let s = unsafe {
+        kdray_triangles_open(
+            &mut tree,
+            bytes.as_ptr(),
+            bytes.len(),
+            core::ptr::null_mut(),
+            0,
+        )
+    };
+    assert_eq!(s, KdrayStatus::Ok);
+    let rays = rays();
+    let mut want = std::vec![KdrayHit::zeroed(); rays.len()];
+    // SAFETY: `rays.len()` records each.
+    let s = unsafe { kdray_closest_hits(&tree, rays.as_ptr(), want.as_mut_ptr(), rays.len()) };
+    assert_eq!(s, KdrayStatus::Ok);
+    let mut needed = 0;
+    // SAFETY: asking the count (null lines, capacity 0).
+    let s = unsafe { kdray_triangles_treelets(&mut tree, core::ptr::null_mut(), 0, &mut needed) };
+    assert_eq!((s, needed > 1), (KdrayStatus::BufferTooSmall, true));
+    let lines: &'static mut [kdray_kernel::Treelet] = std::vec![Default::default(); needed].leak();
+    let at = lines.as_mut_ptr().cast::<KdrayTreelet>();
+    // SAFETY: `needed` records, 64-byte aligned (the kernel's `Treelet`),
+    // alive for the test; a misaligned pointer is refused first.
+    unsafe {
+        let off = at.cast::<u8>().add(4).cast::<KdrayTreelet>();
+        let s = kdray_triangles_treelets(&mut tree, off, needed, &mut needed);
+        assert_eq!(s, KdrayStatus::Misaligned);
+        assert_eq!(
+            kdray_triangles_treelets(&mut tree, at, needed, &mut needed),
+            KdrayStatus::Ok
+        );
+    }
+    let mut got = std::vec![KdrayHit::zeroed(); rays.len()];
+    // SAFETY: as above.
+    let s = unsafe { kdray_closest_hits(&tree, rays.as_ptr(), got.as_mut_ptr(), rays.len()) };
+    assert_eq!(s, KdrayStatus::Ok);
+    assert_eq!(got, want);
+}

@@ -189,6 +189,27 @@ static void check_rays(const uint8_t *blob, size_t len, const char *out) {
 
   CHECK(kdray_closest_hits(&tree, rays, stream, RAYS) == KDRAY_STATUS_OK, "stream");
   CHECK(memcmp(stream, closest, sizeof stream) == 0, "stream hits equal single-ray hits");
+  {
+    /* The tree's treelets in a copy of the handle: the count first, then
+       the lines; the scattered stream answers as before, bit for bit. (The
+       cube is one leaf and has none; the Rust tests walk a larger tree.) */
+    KdrayTriangleTree lined = tree;
+    size_t needed = 99;
+    KdrayStatus s = kdray_triangles_treelets(&lined, NULL, 0, &needed);
+    CHECK(needed > 0 ? s == KDRAY_STATUS_BUFFER_TOO_SMALL : s == KDRAY_STATUS_OK, "treelets: the count");
+    if (needed > 0) {
+      KdrayTreelet *lines = aligned_alloc(64, needed * sizeof *lines);
+      CHECK(lines != NULL, "treelets: memory");
+      CHECK(kdray_triangles_treelets(&lined, (KdrayTreelet *)((char *)lines + 4), needed, &needed) ==
+                KDRAY_STATUS_MISALIGNED,
+            "treelets: a misaligned buffer is refused");
+      CHECK(kdray_triangles_treelets(&lined, lines, needed, &needed) == KDRAY_STATUS_OK, "treelets");
+      memset(stream, 0, sizeof stream);
+      CHECK(kdray_closest_hits(&lined, rays, stream, RAYS) == KDRAY_STATUS_OK, "stream with treelets");
+      CHECK(memcmp(stream, closest, sizeof stream) == 0, "stream hits through treelets equal single-ray hits");
+      free(lines);
+    }
+  }
   CHECK(kdray_any_hits(&tree, rays, stream_occluded, RAYS) == KDRAY_STATUS_OK, "stream");
   CHECK(memcmp(stream_occluded, occluded, sizeof occluded) == 0, "stream occlusion equals single rays'");
   static uint64_t scratch[2 * RAYS];

@@ -17,8 +17,10 @@
 //! the same tests (`!(t < lo)` for the near side, `!(t > hi)` for the far,
 //! a NaN visiting both), the same intervals widened by the slack and the
 //! same cutoff, so the treelet walk visits the leaves the one-plane walk
-//! visits, in the same front-to-back order, and each answer is the single
-//! ray's bit for bit.
+//! visits, in the same front-to-back order (a treelet's lower planes see
+//! the cutoff of when it was entered, not of when a pushed exit is
+//! popped, so now and then a cell more), and each answer is the single
+//! ray's bit for bit: triangles are tested over the ray's own interval.
 //!
 //! Why in turns: measured on the walks alone (leaves counted, not tested;
 //! the same leaves per ray; bunny, teapot, sponza and the built-in scene,

@@ -264,7 +264,7 @@ impl TriangleTree<'_> {
     /// of 256 rays they find scattered; call it for a batch known to be.
     ///
     /// # Panics
-    /// Never. No allocation (the walks in turns take ~22 KiB of stack).
+    /// Never. No allocation (the four walks in turns take ~9 KiB of stack).
     pub fn closest_hits_scattered(&self, rays: &[Ray], hits: &mut [Hit]) {
         #[cfg(target_arch = "x86_64")]
         if !self.lines.is_empty() && dispatch(TreeletWalks(self, rays, &mut *hits)) {

@@ -570,8 +570,9 @@ const _: () = assert!(core::mem::size_of::<KdrayTreelet>() == core::mem::size_of
 /// regrouped three levels to a 64-byte line, which streams of scattered
 /// rays (`kdray_closest_hits` over bounce rays, random rays) then walk 7
 /// split planes at a time, four rays in turns, on a processor with AVX2:
-/// the same answers, bit for bit, 1.1-1.5x faster on random rays. Coherent
-/// rays (camera tiles) and the other queries are unchanged. `*needed` is
+/// the same answers, bit for bit, up to 1.5x faster on random rays
+/// (docs/results.md). Coherent rays (camera tiles) and the other queries
+/// are unchanged. `*needed` is
 /// always set to the number of treelets the tree has; with `capacity`
 /// below it the call returns `KDRAY_STATUS_BUFFER_TOO_SMALL` and changes
 /// nothing else (call with `capacity` 0 and `treelets` null to ask).

@@ -204,7 +204,10 @@ impl<'a> TriangleTree<'a> {
         if let Some(first) = lines.first_mut() {
             first.exit[0] = 0;
         }
-        for i in 0..needed {
+        // Only the treelets written as some exit's child (all of them, in
+        // a valid tree); the loop never reads a line it did not write.
+        let mut i = 0;
+        while i < next {
             let Some(root) = lines.get(i).map(|t| t.exit[0]) else {
                 break;
             };
@@ -245,6 +248,7 @@ impl<'a> TriangleTree<'a> {
             if let Some(line) = lines.get_mut(i) {
                 *line = t;
             }
+            i += 1;
         }
         Ok(TriangleTree {
             lines: &*lines,

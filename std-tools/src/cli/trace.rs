@@ -103,13 +103,9 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     } else {
         tree
     };
-    // The best of `repeat` passes, as the anchors report theirs.
-    let mut seconds = f64::INFINITY;
-    for _ in 0..a.repeat {
-        let t = Instant::now();
+    let seconds = best_of(a.repeat, || {
         pool.install(|| trace_into(&tree, &rays, &mut hits, query, a.packet, a.order));
-        seconds = seconds.min(t.elapsed().as_secs_f64());
-    }
+    });
     io::write_records(&a.output, &hits)?;
     let per_ray = a.counts.then(|| {
         let mut total = (0u64, 0u64);
@@ -196,12 +192,8 @@ fn trace_first_hits(
         )
     })?;
     hits.resize(slots, Hit::MISS);
-    let (mut seconds, mut found) = (f64::INFINITY, 0);
-    for _ in 0..a.repeat {
-        let t = Instant::now();
-        found = pool.install(|| fill(&mut hits));
-        seconds = seconds.min(t.elapsed().as_secs_f64());
-    }
+    let mut found = 0;
+    let seconds = best_of(a.repeat, || found = pool.install(|| fill(&mut hits)));
     io::write_records(&a.output, &hits)?;
     let hit_rays = hits
         .chunks(k)
@@ -246,12 +238,9 @@ fn trace_scene_blob(a: &Args, pool: &rayon::ThreadPool, blob: &Blob) -> CmdResul
         });
     }
     let mut hits = vec![Hit::MISS; rays.len()];
-    let mut seconds = f64::INFINITY;
-    for _ in 0..a.repeat {
-        let t = Instant::now();
+    let seconds = best_of(a.repeat, || {
         pool.install(|| trace_scene(&scene, &offsets, &rays, &mut hits, a.any_hit));
-        seconds = seconds.min(t.elapsed().as_secs_f64());
-    }
+    });
     io::write_records(&a.output, &hits)?;
     let hit_count = hits.iter().filter(|h| h.prim != kdray_kernel::MISS).count();
     let mrays = rays.len() as f64 / seconds.max(1e-12) / 1e6;
@@ -277,6 +266,18 @@ fn trace_scene_blob(a: &Args, pool: &rayon::ThreadPool, blob: &Blob) -> CmdResul
         say!("wrote {}", a.output.display());
     }
     Ok(())
+}
+
+/// The seconds of the best of `repeat` runs of `pass`, as the anchors
+/// report theirs.
+fn best_of(repeat: u32, mut pass: impl FnMut()) -> f64 {
+    (0..repeat)
+        .map(|_| {
+            let t = Instant::now();
+            pass();
+            t.elapsed().as_secs_f64()
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// `--packet` (of `trace` and `render`): 1, 4, 8 or 16.

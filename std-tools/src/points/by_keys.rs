@@ -41,7 +41,11 @@
 //! read through the positions, only leaves writing their runs): the knn
 //! bench's builds 8-D duplicates 0.92x -> 0.83-0.88x kiddo, 16-D
 //! 0.89-0.96x -> 0.81-0.99x, 2-D 1.02x -> 0.79x (gathers by position
-//! cost more than the moves they save).
+//! cost more than the moves they save); every node split at its median
+//! exactly (ties past the median broken by index as below, not only when
+//! the median is the largest coordinate): 8-D duplicates 0.88-0.91x ->
+//! 0.62x kiddo, 16-D 0.92x -> 0.69-0.70x, 2-D 1.96-2.10x -> 0.90x (the
+//! ties' passes cost more than the levels the balance saves).
 
 use super::store::{bounds_of, coordinate_order, leaf_node, put_leaf_major, Store};
 use kdray_kernel::{PointNode, Scalar};

@@ -45,7 +45,11 @@
 //! exactly (ties past the median broken by index as below, not only when
 //! the median is the largest coordinate): 8-D duplicates 0.88-0.91x ->
 //! 0.62x kiddo, 16-D 0.92x -> 0.69-0.70x, 2-D 1.96-2.10x -> 0.90x (the
-//! ties' passes cost more than the levels the balance saves).
+//! ties' passes cost more than the levels the balance saves); where ties
+//! run past the median, the split moved down to the largest coordinate
+//! below it when that balances the node better (one scan of the keys, no
+//! index tie-break): 8-D duplicates 0.87-0.93x -> 0.88-0.89x, the rest
+//! level or slower by the scan.
 
 use super::store::{bounds_of, coordinate_order, leaf_node, put_leaf_major, Store};
 use kdray_kernel::{PointNode, Scalar};

@@ -139,7 +139,7 @@ fn check_all<const D: usize, S: Coord>(points: &[[S; D]], params: &PointParams, 
 fn every_kind<const D: usize>(n: usize) {
     for kind in 0..KINDS {
         let params = PointParams {
-            leaf_size: 8,
+            leaf_size: Some(8),
             parallel_min: 500,
             ..PointParams::default()
         };
@@ -176,7 +176,7 @@ proptest! {
         seed in any::<u64>(),
         leaf_size in 1usize..80,
     ) {
-        let params = PointParams { leaf_size, parallel_min: 500, ..Default::default() };
+        let params = PointParams { leaf_size: Some(leaf_size), parallel_min: 500, ..Default::default() };
         // Both builder stores: 3-D `f32` in place, 2-D `f32` and 8-D
         // `f64` through their keys.
         check_all(&point_set::<3, f32>(kind, n, seed), &params, seed);

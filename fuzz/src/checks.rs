@@ -566,7 +566,7 @@ fn point_blob_at<const D: usize, S: kdray::kernel::Scalar>(
         .map(|_| std::array::from_fn(|_| of(f32::from(r.u8() % 8) / 2.0)))
         .collect();
     let params = PointParams {
-        leaf_size: usize::from(r.u8() % 16) + 1,
+        leaf_size: Some(usize::from(r.u8() % 16) + 1),
         ..PointParams::default()
     };
     let Ok(built) = build_points(&points, &params) else {

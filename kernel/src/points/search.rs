@@ -278,9 +278,10 @@ fn chunk_min<S: Scalar>(d: &[S; CHUNK]) -> S {
     low(m2[0], m2[1])
 }
 
-/// Points per step of the leaf scan: the builder's default leaf size, so
-/// a leaf is one pass of each axis over contiguous coordinates and one
-/// skip decision. Against chunks of 8 (two rounds, the knn bench): 2-D
+/// Points per step of the leaf scan: the builder's default leaf size
+/// below 8-D, so a leaf is one pass of each axis over contiguous
+/// coordinates and one skip decision (from 8-D on a default leaf of up to
+/// 64 points takes two). Against chunks of 8 (two rounds, the knn bench): 2-D
 /// and 3-D uniform k = 1 and 10 0.89-0.98x -> 1.04-1.12x kiddo, 8-D
 /// 1.09-1.12x -> 1.26-1.41x, 16-D 1.1x -> 1.7-2.0x, 2-D clustered k = 1
 /// 2.05x -> 2.25x; chunks of 16 and 64 fall between the two, 4 at

@@ -65,9 +65,10 @@ pub(crate) struct Args {
     output: PathBuf,
     #[command(flatten)]
     shape: Shape,
-    /// Points per leaf (the lecture's m).
-    #[arg(long, default_value_t = PointParams::default().leaf_size)]
-    leaf_size: usize,
+    /// Points per leaf (the lecture's m; default 32 below 8-D, 64 from
+    /// 8-D on).
+    #[arg(long)]
+    leaf_size: Option<usize>,
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     json: bool,
@@ -75,7 +76,7 @@ pub(crate) struct Args {
 
 pub(crate) fn run(a: &Args) -> CmdResult {
     io::check_output(&a.output)?;
-    if a.leaf_size == 0 {
+    if a.leaf_size == Some(0) {
         return Err("--leaf-size must be at least 1".into());
     }
     dispatch(a.shape, a)

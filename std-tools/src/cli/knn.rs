@@ -7,7 +7,7 @@ use super::json::JsonObject;
 use super::{plural, thread_pool, CmdResult};
 use kdray_kernel::{Neighbour, Scalar};
 use kdray_tools::io;
-use kdray_tools::points::{build_points, knn_all, PointParams};
+use kdray_tools::points::{build_points, default_leaf_size, knn_all, PointParams};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -27,9 +27,10 @@ pub(crate) struct Args {
     /// index then the squared distance as f32, or f64 with --f64).
     #[arg(short, long)]
     output: PathBuf,
-    /// Points per leaf (the lecture's m).
-    #[arg(long, default_value_t = PointParams::default().leaf_size)]
-    leaf_size: usize,
+    /// Points per leaf (the lecture's m; default 32 below 8-D, 64 from
+    /// 8-D on).
+    #[arg(long)]
+    leaf_size: Option<usize>,
     /// Build and answer this many times; timings are the best pass.
     #[arg(long, default_value_t = 1)]
     reps: usize,
@@ -43,7 +44,7 @@ pub(crate) struct Args {
 
 pub(crate) fn run(a: &Args) -> CmdResult {
     io::check_output(&a.output)?;
-    if a.k == 0 || a.reps == 0 || a.leaf_size == 0 {
+    if a.k == 0 || a.reps == 0 || a.leaf_size == Some(0) {
         return Err("-k, --reps and --leaf-size must be at least 1".into());
     }
     dispatch(a.shape, a)
@@ -126,7 +127,7 @@ fn run_shaped<const D: usize, S: Scalar>(a: &Args) -> CmdResult {
             .num("dim", D as f64)
             .str("scalar", S::NAME)
             .num("threads", pool.current_num_threads() as f64)
-            .num("leaf_size", a.leaf_size as f64)
+            .num("leaf_size", a.leaf_size.unwrap_or(default_leaf_size(D)) as f64)
             .num("reps", a.reps as f64)
             .num("build_ms", build_s * 1e3)
             .num("seconds", query_s)

@@ -23,12 +23,9 @@ use std::fmt;
 #[derive(Clone, Debug, PartialEq)]
 pub struct PointParams {
     /// A node with at most this many points is a leaf (the lecture's m;
-    /// median splits make leaves of m/2 to m points). Default 32: measured
-    /// on the 1M-point anchor sets (uniform, clustered, bunny), one core,
-    /// k = 1 and 10: m = 6 and 8 were 10-40% slower than 16 and 32, which
-    /// were within noise of each other (32 ahead on the bunny), and 32
-    /// builds ~10% faster.
-    pub leaf_size: usize,
+    /// median splits make leaves of m/2 to m points). Default `None`:
+    /// [`default_leaf_size`] of the points' dimension.
+    pub leaf_size: Option<usize>,
     /// A node whose widest extent is at most this is a leaf, however many
     /// points it holds. Default 0: only piles of equal points stop early
     /// (they cannot be split; the query scans such a pile in O(k)).
@@ -38,13 +35,40 @@ pub struct PointParams {
     pub parallel_min: usize,
 }
 
+/// [`PointParams`] as a build runs with them: the leaf size settled.
+struct Limits {
+    leaf_size: usize,
+    min_width: f64,
+    parallel_min: usize,
+}
+
 impl Default for PointParams {
     fn default() -> Self {
         PointParams {
-            leaf_size: 32,
+            leaf_size: None,
             min_width: 0.0,
             parallel_min: 1 << 16,
         }
+    }
+}
+
+/// The leaf size (the lecture's m) a build of `dim`-dimensional points
+/// takes by default: 32 below 8-D, 64 from 8-D on.
+///
+/// Up to 3-D, measured on the 1M-point anchor sets (uniform, clustered,
+/// bunny), one core, k = 1 and 10: m = 6 and 8 were 10-40% slower than 16
+/// and 32, which were within noise of each other (32 ahead on the
+/// bunny), and 32 builds ~10% faster. At 8-D and 16-D (the knn bench's
+/// 100k-point sets, two interleaved runs against kiddo) 64 builds 6-20%
+/// faster than 32, one level fewer, and queries as fast or faster: a
+/// query there reaches more leaves per level it descends, so fewer levels
+/// pay.
+#[must_use]
+pub const fn default_leaf_size(dim: usize) -> usize {
+    if dim >= 8 {
+        64
+    } else {
+        32
     }
 }
 
@@ -147,9 +171,12 @@ pub fn build_points<const D: usize, S: Scalar>(
             count: points.len(),
         });
     }
-    let params = PointParams {
-        leaf_size: params.leaf_size.clamp(1, MAX_POINT_FIELD as usize),
-        ..params.clone()
+    let params = Limits {
+        leaf_size: (params.leaf_size)
+            .unwrap_or(default_leaf_size(D))
+            .clamp(1, MAX_POINT_FIELD as usize),
+        min_width: params.min_width,
+        parallel_min: params.parallel_min,
     };
     if in_place::<D, S>() {
         let mut items: Vec<Item<D, S>> = points
@@ -220,7 +247,7 @@ fn split_axis<const D: usize, S: Scalar>(
     len: usize,
     b: &[[S; D]; 2],
     depth: u32,
-    params: &PointParams,
+    params: &Limits,
 ) -> Option<usize> {
     if len <= params.leaf_size || depth >= MAX_DEPTH {
         return None;
@@ -247,7 +274,7 @@ fn grow<const D: usize, S: Scalar, R: Store<D, S>>(
     depth: u32,
     slot: usize,
     t: &mut Subtree<D, S>,
-    params: &PointParams,
+    params: &Limits,
     scratch: &mut R::Scratch,
 ) {
     let b = run.bounds();
@@ -286,7 +313,7 @@ fn grow_parallel<const D: usize, S: Scalar, R: Store<D, S>>(
     mut run: R,
     offset: usize,
     depth: u32,
-    params: &PointParams,
+    params: &Limits,
 ) -> Subtree<D, S> {
     let mut scratch = R::Scratch::default();
     if run.len() >= params.parallel_min {
@@ -494,6 +521,43 @@ mod tests {
                 assert_eq!(below_set::<8>(&xs, order), (ids.clone(), split), "{order}");
             }
         }
+    }
+
+    /// The largest leaf of `built`.
+    fn largest_leaf<const D: usize>(built: &BuiltPoints<D>) -> u32 {
+        (built.nodes.iter())
+            .filter_map(|n| match n.kind() {
+                PointNodeKind::Leaf { count, .. } => Some(count),
+                PointNodeKind::Interior { .. } => None,
+            })
+            .max()
+            .unwrap_or(0)
+    }
+
+    #[test]
+    fn the_default_leaf_size_follows_the_dimension_and_a_given_one_wins() {
+        // Median splits leave leaves of m/2 to m points: at the default,
+        // 3-D leaves reach past 16 and stop at 32, 8-D and 16-D ones
+        // reach past 32 and stop at 64.
+        let default = PointParams::default();
+        let three = largest_leaf(&build_points(&lcg_points::<3>(5000, 7), &default).unwrap());
+        assert!((17..=32).contains(&three), "3-D leaves of up to {three}");
+        let eight = largest_leaf(&build_points(&lcg_points::<8>(5000, 7), &default).unwrap());
+        assert!((33..=64).contains(&eight), "8-D leaves of up to {eight}");
+        let sixteen = largest_leaf(&build_points(&lcg_points::<16>(5000, 7), &default).unwrap());
+        assert!(
+            (33..=64).contains(&sixteen),
+            "16-D leaves of up to {sixteen}"
+        );
+        let given = PointParams {
+            leaf_size: Some(32),
+            ..PointParams::default()
+        };
+        let eight = largest_leaf(&build_points(&lcg_points::<8>(5000, 7), &given).unwrap());
+        assert!(
+            (17..=32).contains(&eight),
+            "8-D leaves of up to {eight} at m = 32"
+        );
     }
 
     #[test]

@@ -140,7 +140,8 @@ fn sort_by_index<const D: usize, S: Copy>(items: &mut [Item<D, S>]) {
     items.copy_from_slice(&sorted[..n]);
 }
 
-/// The largest leaf [`sort_by_index`] sorts by ranks: the default leaf size.
+/// The largest leaf [`sort_by_index`] sorts by ranks: the default leaf
+/// size of the dimensions built in place (below 8-D).
 const RANKED_MAX: usize = 32;
 
 /// The coordinates of `items` (in leaf order) as the kernel stores them:

@@ -11,7 +11,9 @@ mod by_keys;
 mod in_place;
 mod store;
 
-pub use builder::{build_points, BuiltPoints, PointBuildError, PointParams, MAX_POINTS};
+pub use builder::{
+    build_points, default_leaf_size, BuiltPoints, PointBuildError, PointParams, MAX_POINTS,
+};
 
 use kdray_kernel::{Neighbour, PointTreeN, Scalar};
 use rayon::prelude::*;

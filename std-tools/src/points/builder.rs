@@ -59,10 +59,9 @@ impl Default for PointParams {
 /// bunny), one core, k = 1 and 10: m = 6 and 8 were 10-40% slower than 16
 /// and 32, which were within noise of each other (32 ahead on the
 /// bunny), and 32 builds ~10% faster. At 8-D and 16-D (the knn bench's
-/// 100k-point sets, two interleaved runs against kiddo) 64 builds 6-20%
-/// faster than 32, one level fewer, and queries as fast or faster: a
-/// query there reaches more leaves per level it descends, so fewer levels
-/// pay.
+/// 100k-point sets, leaves of 32 and 64 interleaved, two rounds against
+/// kiddo) 64 builds 10-35% faster, a level fewer, and queries run as
+/// fast or faster (docs/results.md, "Leaves of 64 points from 8-D on").
 #[must_use]
 pub const fn default_leaf_size(dim: usize) -> usize {
     if dim >= 8 {

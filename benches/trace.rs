@@ -2,35 +2,18 @@
 //! on the bunny (when `../shared/meshes` is there) and the built-in scene.
 //! Compare the ratio within one run; the machine is shared and noisy.
 
+mod common;
+
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use kdray::kernel::Bounds;
-use kdray::kernel::{closest_hit_brute, Ray, Triangle};
+use kdray::kernel::{closest_hit_brute, Ray};
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use kdray::tools::camera::{random_rays, Camera};
-use kdray::tools::{mesh, scene};
 use std::hint::black_box;
-use std::path::PathBuf;
-
-fn scenes() -> Vec<(String, Vec<Triangle>, Bounds)> {
-    let s = scene::teapot_in_stadium();
-    let mut out = vec![("teapot-stadium".to_string(), s.triangles, s.focus)];
-    let bunny = PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../shared/meshes/stanford-bunny.obj"
-    ));
-    match mesh::load(&bunny) {
-        Ok(t) => {
-            let b = t.iter().fold(Bounds::EMPTY, |b, x| b.union(&x.bounds()));
-            out.push(("bunny".to_string(), t, b));
-        }
-        Err(e) => eprintln!("bunny skipped: {e}"),
-    }
-    out
-}
 
 fn trace(c: &mut Criterion) {
-    for (name, tris, focus) in scenes() {
+    for (name, tris, focus) in common::scenes(&["stanford-bunny"]) {
         let built = build(&tris, BuilderKind::default(), &BuildParams::default()).unwrap();
         let blob: Blob = write_triangle_tree(&built, &tris).expect("the bench tree fits a blob");
         let tree = blob.tree().unwrap();

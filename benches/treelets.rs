@@ -9,35 +9,16 @@
 //! taskset -c 0 cargo bench --bench treelets
 //! ```
 
+mod common;
+
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use kdray::kernel::{Bounds, Hit, PacketWidth, Ray, Treelet, Triangle};
+use kdray::kernel::{Hit, PacketWidth, Ray, Treelet};
 use kdray::tools::blob::write_triangle_tree;
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use kdray::tools::camera::{random_rays, Camera};
-use kdray::tools::{mesh, scene};
-use std::path::PathBuf;
-
-fn scenes() -> Vec<(String, Vec<Triangle>, Bounds)> {
-    let s = scene::teapot_in_stadium();
-    let mut out = vec![("teapot-stadium".to_string(), s.triangles, s.focus)];
-    for name in ["stanford-bunny", "teapot", "sponza"] {
-        let path = PathBuf::from(format!(
-            "{}/../shared/meshes/{name}.obj",
-            env!("CARGO_MANIFEST_DIR")
-        ));
-        match mesh::load(&path) {
-            Ok(t) => {
-                let b = t.iter().fold(Bounds::EMPTY, |b, x| b.union(&x.bounds()));
-                out.push((name.to_string(), t, b));
-            }
-            Err(e) => eprintln!("{name} skipped: {e}"),
-        }
-    }
-    out
-}
 
 fn treelets(c: &mut Criterion) {
-    for (name, tris, focus) in scenes() {
+    for (name, tris, focus) in common::scenes(&["stanford-bunny", "teapot", "sponza"]) {
         let built = build(&tris, BuilderKind::default(), &BuildParams::default()).unwrap();
         let blob = write_triangle_tree(&built, &tris).expect("the bench tree fits a blob");
         let tree = blob.tree().unwrap();

@@ -7,7 +7,7 @@ use super::json::JsonObject;
 use super::{plural, thread_pool, CmdResult};
 use kdray_kernel::{Neighbour, Scalar};
 use kdray_tools::io;
-use kdray_tools::points::{build_points, default_leaf_size, knn_all, PointParams};
+use kdray_tools::points::{build_points, knn_all, PointParams};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -127,7 +127,7 @@ fn run_shaped<const D: usize, S: Scalar>(a: &Args) -> CmdResult {
             .num("dim", D as f64)
             .str("scalar", S::NAME)
             .num("threads", pool.current_num_threads() as f64)
-            .num("leaf_size", a.leaf_size.unwrap_or(default_leaf_size(D)) as f64)
+            .num("leaf_size", params.leaf_size_for(D) as f64)
             .num("reps", a.reps as f64)
             .num("build_ms", build_s * 1e3)
             .num("seconds", query_s)

@@ -35,6 +35,17 @@ pub struct PointParams {
     pub parallel_min: usize,
 }
 
+impl PointParams {
+    /// The leaf size a build of `dim`-dimensional points takes: the one
+    /// given, or [`default_leaf_size`], within `1..=MAX_POINT_FIELD`.
+    #[must_use]
+    pub fn leaf_size_for(&self, dim: usize) -> usize {
+        self.leaf_size
+            .unwrap_or(default_leaf_size(dim))
+            .clamp(1, MAX_POINT_FIELD as usize)
+    }
+}
+
 /// [`PointParams`] as a build runs with them: the leaf size settled.
 struct Limits {
     leaf_size: usize,
@@ -60,7 +71,7 @@ impl Default for PointParams {
 /// and 32, which were within noise of each other (32 ahead on the
 /// bunny), and 32 builds ~10% faster. At 8-D and 16-D (the knn bench's
 /// 100k-point sets, leaves of 32 and 64 interleaved, two rounds against
-/// kiddo) 64 builds 10-35% faster, a level fewer, and queries run as
+/// kiddo) 64 builds 8-37% faster, a level fewer, and queries run as
 /// fast or faster (docs/results.md, "Leaves of 64 points from 8-D on").
 #[must_use]
 pub const fn default_leaf_size(dim: usize) -> usize {
@@ -171,9 +182,7 @@ pub fn build_points<const D: usize, S: Scalar>(
         });
     }
     let params = Limits {
-        leaf_size: (params.leaf_size)
-            .unwrap_or(default_leaf_size(D))
-            .clamp(1, MAX_POINT_FIELD as usize),
+        leaf_size: params.leaf_size_for(D),
         min_width: params.min_width,
         parallel_min: params.parallel_min,
     };

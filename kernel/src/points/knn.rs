@@ -1,22 +1,50 @@
 //! The k nearest points, into a caller's buffer, sorted.
 //!
-//! Up to [`SORTED_MAX`] neighbours the buffer is kept sorted by insertion
-//! (a new point usually lands near the end, and k is small); past it, the
-//! buffer is a binary max-heap on (squared distance, index), sorted in
-//! place when the search ends: O(log k) per accepted point and
-//! O(k log k) for the final sort, where insertion would cost O(k) per
-//! point (O(k²) per query). The order is total (indices are distinct), so
-//! both keep exactly the k first points in it: the same answer, bit for bit.
+//! The buffer is kept one of three ways, by k ([`Keep`]): sorted, a new
+//! point's slot found walking down from the end with each later point
+//! moved up as it is passed (k <= [`STEPPED_MAX`]); sorted, the slot found
+//! the same way and the later points then moved up in one copy (k <=
+//! [`SORTED_MAX`]); past that, a binary max-heap on (squared distance,
+//! index), sorted in place when the search ends: O(log k) per accepted
+//! point and O(k log k) for the final sort, where insertion costs O(k)
+//! per point. The order is total (indices are distinct), so all three
+//! keep exactly the k first points in it: the same answer, bit for bit.
+//!
+//! The thresholds, measured (the knn bench's uniform sets, `KDRAY_KNN_K`
+//! from 10 to 2,000, kdray / kiddo, two interleaved rounds): the copy
+//! overtakes the stepped walk above k = 32 (3-D k = 64 0.86x -> 0.91x
+//! kiddo, k = 24 1.02x -> 0.98-1.00x), the heap overtakes the copy above
+//! k = 128 (3-D k = 256 0.78x -> 0.87x, 8-D 1.11x -> 1.23-1.33x). Tried
+//! and lost: the slot found by a binary search without branches (3-D
+//! k = 64 0.63x against the heap's 0.66x: each step waits on the last
+//! step's load); every buffer filled as a heap and heapsorted once full,
+//! as kiddo fills unsorted and sorts once (2-D k = 10 to 128
+//! 0.77-1.08x -> 0.60-0.95x).
 
 use super::nearest::Nearest;
 use super::scalar::query_is_valid;
 use super::search::Accumulator;
 use super::{distance2, Neighbour, PointTreeN, Scalar};
 
-/// The largest k kept by sorted insertion; larger ones use the heap.
-/// (Not tuned by measurement: insertion is the cheaper loop for the small
-/// k most queries ask; the heap bounds the cost for large k.)
-pub(crate) const SORTED_MAX: usize = 32;
+/// The largest k whose sorted insertion moves each later point up as it
+/// passes it (module docs).
+pub(crate) const STEPPED_MAX: usize = 32;
+
+/// The largest k kept sorted; larger ones use the heap (module docs).
+pub(crate) const SORTED_MAX: usize = 128;
+
+/// How the buffer is kept, by k.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Keep {
+    /// Sorted; each later point moved up on its own, as the walk down
+    /// from the end compares it (k <= [`STEPPED_MAX`]).
+    Stepped,
+    /// Sorted; the slot found walking down from the end, then the later
+    /// points moved up in one copy (k <= [`SORTED_MAX`]).
+    Scanned,
+    /// A max-heap, sorted when the search ends.
+    Heap,
+}
 
 /// The best `out.len()` points so far, in the caller's buffer.
 struct Knn<'o, S: Scalar> {
@@ -24,11 +52,17 @@ struct Knn<'o, S: Scalar> {
     len: usize,
     /// The k-th best distance once the buffer is full, else the max distance.
     bound: S,
-    /// Is `out[..len]` a max-heap (k > [`SORTED_MAX`]) rather than sorted?
-    heap: bool,
+    /// How `out[..len]` is kept.
+    keep: Keep,
 }
 
 /// Does `a` come after `b` in the result order?
+///
+/// Tried: both compared as one integer each (the distance's bits above
+/// the index: one compare where this takes two and a branch): 2-D k = 10
+/// 1.03-1.10x -> 0.96-0.99x kiddo, 3-D 1.03-1.05x -> 1.02-1.03x (three
+/// interleaved rounds of the knn bench); the branch on equal distances
+/// is never taken on most sets, so it predicts.
 #[inline(always)]
 fn after<S: Scalar>(a: Neighbour<S>, b: Neighbour<S>) -> bool {
     Neighbour::precedes(b.d2, b.index, a)
@@ -37,19 +71,23 @@ fn after<S: Scalar>(a: Neighbour<S>, b: Neighbour<S>) -> bool {
 impl<'o, S: Scalar> Knn<'o, S> {
     #[inline(always)]
     fn new(out: &'o mut [Neighbour<S>], max_d2: S) -> Knn<'o, S> {
-        let heap = out.len() > SORTED_MAX;
+        let keep = match out.len() {
+            ..=STEPPED_MAX => Keep::Stepped,
+            k if k <= SORTED_MAX => Keep::Scanned,
+            _ => Keep::Heap,
+        };
         Knn {
             out,
             len: 0,
             bound: max_d2,
-            heap,
+            keep,
         }
     }
 
     /// The answer's length, `out[..len]` sorted.
     fn finish(self) -> usize {
-        let Knn { out, len, heap, .. } = self;
-        if heap {
+        let Knn { out, len, keep, .. } = self;
+        if keep == Keep::Heap {
             // Heapsort: move the worst to the end, restore the heap before it.
             let mut end = len;
             while end > 1 {
@@ -69,33 +107,70 @@ impl<'o, S: Scalar> Knn<'o, S> {
         len
     }
 
+    /// Counts one more point, unless full (then the worst is dropped);
+    /// returns how many of the points held stay: the new one's slot is
+    /// among `out[..=kept]`.
+    #[inline(always)]
+    fn make_room(&mut self) -> usize {
+        if self.len == self.out.len() {
+            self.len.saturating_sub(1)
+        } else {
+            self.len += 1;
+            self.len - 1
+        }
+    }
+
     /// Sorted insertion of a point known to belong in the answer.
     /// (Tried: every kept slot rewritten by selects, a loop of fixed
     /// length without the mispredicted exit: k = 10 at 2-D and 3-D
     /// 0.88-0.90x -> 0.68-0.75x kiddo.)
     #[inline(always)]
     fn insert_sorted(&mut self, n: Neighbour<S>) {
-        let k = self.out.len();
-        let mut j = if self.len == k {
-            k - 1
-        } else {
-            self.len += 1;
-            self.len - 1
+        let kept = self.make_room();
+        let Some(run) = self.out.get_mut(..=kept) else {
+            return;
         };
-        // Shift the worse ones up one slot; j < k throughout. Read and
-        // written through `get`: the optimiser cannot see j < k, and an
-        // index would leave a panic path (firmware/ links only without one).
-        while j > 0 {
-            let Some(&prev) = self.out.get(j - 1) else {
-                break;
-            };
+        // Shift the worse ones up one slot, walking down from the end.
+        let mut j = kept;
+        while let Some(&prev) = j.checked_sub(1).and_then(|i| run.get(i)) {
             if !after(prev, n) {
                 break;
             }
-            put(self.out, j, prev);
+            put(run, j, prev);
             j -= 1;
         }
-        put(self.out, j, n);
+        put(run, j, n);
+    }
+
+    /// Sorted insertion for a larger k: the slot found by walking down
+    /// from the end, then the later points moved up one slot in one copy.
+    fn insert_scanned(&mut self, n: Neighbour<S>) {
+        let kept = self.make_room();
+        let Some((_, staying)) = self
+            .out
+            .get_mut(..=kept)
+            .and_then(|run| run.split_last_mut())
+        else {
+            return;
+        };
+        let later = staying.iter().rev().take_while(|&&p| after(p, n)).count();
+        let Some(moved) = self.out.get_mut(kept - later..=kept) else {
+            return;
+        };
+        // The later points up one slot in one copy (a `memmove`). Tried
+        // safe: `copy_within`, whose range checks stay (a panic path,
+        // firmware/); a loop moving one point at a time: 2-D and 3-D
+        // k = 128 0.82-0.86x -> 0.72-0.78x kiddo.
+        if later < moved.len() {
+            let p = moved.as_mut_ptr();
+            // SAFETY: `moved` holds at least `later + 1` points (checked
+            // just above), so the source `moved[..later]` and the
+            // destination `moved[1..=later]` both lie inside it; both
+            // pointers derive from the one `p`, `ptr::copy` allows the
+            // overlap, and `Neighbour` is `Copy` (nothing to drop).
+            unsafe { core::ptr::copy(p, p.add(1), later) };
+        }
+        put(moved, 0, n);
     }
 
     /// Heap insertion of a point known to belong in the answer.
@@ -128,18 +203,31 @@ impl<'o, S: Scalar> Knn<'o, S> {
 /// Restores the max-heap property below `j` in `h`.
 fn sift_down<S: Scalar>(h: &mut [Neighbour<S>], mut j: usize) {
     let Some(&n) = h.get(j) else { return };
-    loop {
-        let l = 2 * j + 1;
-        let Some(&left) = h.get(l) else { break };
-        let (c, child) = match h.get(l + 1) {
-            Some(&right) if after(right, left) => (l + 1, right),
-            _ => (l, left),
-        };
-        if !after(child, n) {
+    let len = h.len();
+    let mut c = 2 * j + 1;
+    while c + 1 < len {
+        let (Some(&l), Some(&r)) = (h.get(c), h.get(c + 1)) else {
             break;
+        };
+        // The later child, by arithmetic on its index (which one it is
+        // is a coin toss: a branch mispredicted every other level; 2-D
+        // and 3-D k = 512 to 2,000 0.59-0.65x -> 0.75-0.82x kiddo). Tried:
+        // the child's value picked by a select instead: 0.50-0.66x.
+        c += usize::from((l.d2 < r.d2) | ((l.d2 == r.d2) & (l.index < r.index)));
+        let Some(&child) = h.get(c) else { break };
+        if !after(child, n) {
+            put(h, j, n);
+            return;
         }
         put(h, j, child);
         j = c;
+        c = 2 * j + 1;
+    }
+    if let Some(&child) = h.get(c) {
+        if c + 1 == len && after(child, n) {
+            put(h, j, child);
+            j = c;
+        }
     }
     put(h, j, n);
 }
@@ -168,7 +256,7 @@ impl<S: Scalar> Accumulator<S> for Knn<'_, S> {
         // Full: must precede the k-th best (the last, or the heap's root);
         // otherwise within the max distance.
         if self.len == k {
-            let worst = if self.heap {
+            let worst = if self.keep == Keep::Heap {
                 self.out.first()
             } else {
                 self.out.last()
@@ -179,13 +267,13 @@ impl<S: Scalar> Accumulator<S> for Knn<'_, S> {
             }
         }
         let n = Neighbour { index, d2 };
-        if self.heap {
-            self.insert_heap(n);
-        } else {
-            self.insert_sorted(n);
+        match self.keep {
+            Keep::Stepped => self.insert_sorted(n),
+            Keep::Scanned => self.insert_scanned(n),
+            Keep::Heap => self.insert_heap(n),
         }
         if self.len == k {
-            let worst = if self.heap {
+            let worst = if self.keep == Keep::Heap {
                 self.out.first()
             } else {
                 self.out.last()
@@ -332,6 +420,55 @@ mod tests {
                     b.map(Neighbour::bits),
                     "{q:?} k={k}"
                 );
+            }
+        }
+    }
+
+    /// Each way the buffer is kept (stepped, scanned, the heap), filled
+    /// or not, through the scan that offers every point: the k first of
+    /// all points sorted by (distance, index). Points on a lattice of 5
+    /// values per axis, so distances tie. Small enough for Miri (the
+    /// scanned insertion's copy is `unsafe`).
+    #[test]
+    fn every_way_of_keeping_matches_a_sort() {
+        const N: usize = 160;
+        let mut s = 5u32;
+        let points: [[f32; 3]; N] = core::array::from_fn(|_| {
+            core::array::from_fn(|_| {
+                s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                ((s >> 8) % 5) as f32
+            })
+        });
+        let q = [2.0, 1.5, 3.0];
+        // Every point, sorted by insertion (the oracle shares no code
+        // with the buffer's three ways).
+        let mut all: [Neighbour; N] = core::array::from_fn(|i| Neighbour {
+            index: i as u32,
+            d2: distance2(&points[i], &q),
+        });
+        for i in 1..N {
+            let mut j = i;
+            while j > 0 && Neighbour::precedes(all[j].d2, all[j].index, all[j - 1]) {
+                all.swap(j, j - 1);
+                j -= 1;
+            }
+        }
+        for max_d2 in [f32::INFINITY, 3.0] {
+            let within = all.iter().filter(|n| n.d2 <= max_d2).count();
+            for k in [
+                5,
+                STEPPED_MAX,
+                STEPPED_MAX + 1,
+                SORTED_MAX,
+                SORTED_MAX + 1,
+                N + 3,
+            ] {
+                let mut out = [Neighbour::NONE; N + 3];
+                let found = knn_brute(&points, q, max_d2, &mut out[..k]);
+                assert_eq!(found, k.min(within), "k {k} max {max_d2}");
+                for (slot, (got, want)) in out.iter().zip(&all).take(found).enumerate() {
+                    assert_eq!(got.bits(), want.bits(), "k {k} max {max_d2} slot {slot}");
+                }
             }
         }
     }

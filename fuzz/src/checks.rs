@@ -600,8 +600,10 @@ fn point_blob_at<const D: usize, S: kdray::kernel::Scalar>(
     run(&tree);
     if edits == 0 {
         for q in &queries {
-            for k in [1, 4, 12] {
-                let (mut a, mut b) = ([Neighbour::NONE; 12], [Neighbour::NONE; 12]);
+            // Each way the answer buffer is kept: stepped up to 32,
+            // scanned up to 128, the heap past it.
+            for k in [1, 4, 12, 40, 150] {
+                let (mut a, mut b) = ([Neighbour::NONE; 150], [Neighbour::NONE; 150]);
                 let na = tree.knn(*q, &mut a[..k]);
                 let nb = knn_brute(&points, *q, S::INFINITY, &mut b[..k]);
                 assert_eq!(na, nb, "{q:?} k={k}");

@@ -71,6 +71,13 @@ fn after<S: Scalar>(a: Neighbour<S>, b: Neighbour<S>) -> bool {
     Neighbour::precedes(b.d2, b.index, a)
 }
 
+/// [`after`] as one expression of non-short-circuit `|` and `&`: a value
+/// for arithmetic, with no branch on equal distances.
+#[inline(always)]
+fn after_unbranched<S: Scalar>(a: Neighbour<S>, b: Neighbour<S>) -> bool {
+    (b.d2 < a.d2) | ((b.d2 == a.d2) & (b.index < a.index))
+}
+
 impl<'o, S: Scalar> Knn<'o, S> {
     #[inline(always)]
     fn new(out: &'o mut [Neighbour<S>], max_d2: S) -> Knn<'o, S> {
@@ -216,7 +223,7 @@ fn sift_down<S: Scalar>(h: &mut [Neighbour<S>], mut j: usize) {
         // is a coin toss: a branch mispredicted every other level; 2-D
         // and 3-D k = 512 to 2,000 0.59-0.65x -> 0.75-0.82x kiddo). Tried:
         // the child's value picked by a select instead: 0.50-0.66x.
-        c += usize::from((l.d2 < r.d2) | ((l.d2 == r.d2) & (l.index < r.index)));
+        c += usize::from(after_unbranched(r, l));
         let Some(&child) = h.get(c) else { break };
         if !after(child, n) {
             put(h, j, n);

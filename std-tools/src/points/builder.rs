@@ -73,6 +73,11 @@ impl Default for PointParams {
 /// 100k-point sets, leaves of 32 and 64 interleaved, two rounds against
 /// kiddo) 64 builds 8-37% faster, a level fewer, and queries run as
 /// fast or faster (docs/results.md, "Leaves of 64 points from 8-D on").
+/// Tried below 8-D (the knn bench, two interleaved rounds, 2-D and 3-D
+/// against 32's builds 1.01-1.02x and k = 10 1.03-1.07x kiddo): leaves of
+/// 48 build 0.99-1.08x but answer k = 10 at 0.94-1.02x, of 64 build
+/// 1.08-1.22x but answer k = 10 at 0.82-0.93x: a query scans more points
+/// per leaf than the level saved costs.
 #[must_use]
 pub const fn default_leaf_size(dim: usize) -> usize {
     if dim >= 8 {

@@ -1,6 +1,6 @@
 //! Points of all other sizes (2-D `f32`, and from 4-D `f32` and 2-D `f64`
-//! on), moved once a level: a node's median is selected among a copy of
-//! its coordinates on the split axis (the keys), then one pass writes each
+//! on), moved once a level: a node's median is found among its
+//! coordinates on the split axis (the keys, [`key_of_rank`]), then one pass writes each
 //! point to its side of the other buffer, where the children's points then
 //! are. No point moves
 //! twice a level, and no branch depends on the side, a coin toss around a
@@ -51,7 +51,8 @@
 //! index tie-break): 8-D duplicates 0.87-0.93x -> 0.88-0.89x, the rest
 //! level or slower by the scan.
 
-use super::store::{bounds_of, coordinate_order, leaf_node, put_leaf_major, Store};
+use super::median::{key_of_rank, MedianScratch};
+use super::store::{bounds_of, leaf_node, put_leaf_major, Store};
 use kdray_kernel::{PointNode, Scalar};
 
 /// Points and their input indices, side by side.
@@ -83,11 +84,11 @@ pub(super) struct ByKeys<'a, const D: usize, S> {
     pub(super) now_is_final: bool,
 }
 
-/// Buffers a thread reuses: the keys selected, the indices of the ties at
-/// a median, a leaf's order and a copy of its points.
+/// Buffers a thread reuses: the median's, the indices of the ties at a
+/// median, a leaf's order and a copy of its points.
 #[derive(Default)]
 pub(super) struct KeyScratch<const D: usize, S> {
-    keys: Vec<S>,
+    median: MedianScratch<S>,
     ties: Vec<u32>,
     order: Vec<u64>,
     block: Vec<[S; D]>,
@@ -115,24 +116,23 @@ fn split_into<'p, const D: usize, S: Scalar + 'p>(
     lo
 }
 
-/// Splits the `n` points that `from()` lists at the median of axis `a`
-/// ([`Store::partition`]), writing the below side to the front of `to`
-/// and the above side to its back.
-fn partition_into<'p, const D: usize, S: Scalar + 'p, I>(
-    from: impl Fn() -> I,
-    n: usize,
+/// Splits `points` (each with its index from `indices()`) at the median
+/// of axis `a` ([`Store::partition`]), writing the below side to the
+/// front of `to` and the above side to its back.
+fn partition_into<'p, const D: usize, S: Scalar + 'p, J>(
+    points: &'p [[S; D]],
+    indices: impl Fn() -> J,
     a: usize,
     to: &mut Columns<'_, D, S>,
     scratch: &mut KeyScratch<D, S>,
 ) -> (usize, S)
 where
-    I: Iterator<Item = (&'p [S; D], u32)>,
+    J: Iterator<Item = u32>,
 {
+    let from = || points.iter().zip(indices());
+    let n = points.len();
     let mid = n / 2;
-    let keys = &mut scratch.keys;
-    keys.clear();
-    keys.extend(from().map(|(p, _)| p[a]));
-    let split = *keys.select_nth_unstable_by(mid, coordinate_order).1;
+    let split = key_of_rank(points, a, mid, &mut scratch.median);
     let mut below = split_into(from(), to, |p, _| p[a] <= split);
     if below == n {
         // The median is the largest coordinate: the points below it,
@@ -176,8 +176,8 @@ impl<const D: usize, S: Scalar> Store<D, S> for ByKeys<'_, D, S> {
 
     fn partition(&mut self, a: usize, scratch: &mut KeyScratch<D, S>) -> (usize, S) {
         let now = &self.now;
-        let from = || now.p.iter().zip(now.index.iter().copied());
-        let split = partition_into(from, self.len(), a, &mut self.spare, scratch);
+        let indices = || now.index.iter().copied();
+        let split = partition_into(now.p, indices, a, &mut self.spare, scratch);
         std::mem::swap(&mut self.now, &mut self.spare);
         self.now_is_final = !self.now_is_final;
         split
@@ -274,8 +274,7 @@ impl<'a, const D: usize, S: Scalar> Store<D, S> for FromInput<'a, D, S> {
 
     fn partition(&mut self, a: usize, scratch: &mut KeyScratch<D, S>) -> (usize, S) {
         // Indices fit `u32`: the point count was checked against MAX_POINTS.
-        let from = || self.points.iter().zip(0..);
-        partition_into(from, self.points.len(), a, &mut self.first, scratch)
+        partition_into(self.points, || 0.., a, &mut self.first, scratch)
     }
 
     fn children(self, mid: usize) -> [ByKeys<'a, D, S>; 2] {

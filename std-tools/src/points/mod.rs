@@ -9,6 +9,7 @@
 mod builder;
 mod by_keys;
 mod in_place;
+mod median;
 mod store;
 
 pub use builder::{

@@ -22,7 +22,15 @@
 //! 0.77-1.08x -> 0.60-0.95x); from 33 to 128, filled unsorted and sorted
 //! once full by Shell's method (Ciura's gaps): 2-D and 3-D 0.82-0.98x ->
 //! 0.61-0.87x. Both sorts' exits mispredict more often than the walk's
-//! one exit per insertion.
+//! one exit per insertion. Also lost, from 33 to 128: a leaf chunk's
+//! accepted points (judged against the bound as the chunk starts)
+//! gathered without a branch, sorted by insertion and merged into the
+//! buffer from its end, no walk or copy per point: 2-D and 3-D k = 64
+//! and 128 0.80-0.93x -> 0.57-0.65x kiddo (mispredicts 338 -> 267 a
+//! query at 2-D k = 64, callgrind, but 1.3x the instructions: the stale
+//! bound lets whole chunks in, each run's sort is quadratic and each
+//! merge steps over most of the buffer); the slot counted and the later
+//! points moved by a fixed-length loop of selects: 0.84x -> 0.30x.
 
 use super::nearest::Nearest;
 use super::scalar::query_is_valid;

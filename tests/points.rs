@@ -223,8 +223,8 @@ fn large_k_is_exact_with_the_tie_rule() {
         let built = build_points(&points, &PointParams::default()).unwrap();
         let tree = built.view().unwrap();
         for q in queries(&points, 8).into_iter().step_by(5) {
-            // Each way the buffer is kept: stepped up to 32, scanned up to
-            // 128, the heap past it.
+            // Each way the buffer is kept: sorted up to 128, the heap past
+            // it.
             for k in [10, 32, 33, 128, 129, 500, 4999, 5000, 6000] {
                 let (mut a, mut b) = (vec![Neighbour::NONE; k], vec![Neighbour::NONE; k]);
                 let na = tree.knn(q, &mut a);

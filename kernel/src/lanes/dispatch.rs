@@ -20,6 +20,7 @@ pub(crate) trait Level {
     type X16: Lanes<16>;
     /// Whether the level has x86-64-v3 (AVX2): jobs with intrinsics of
     /// their own run them only then.
+    #[cfg(target_arch = "x86_64")]
     const X86_V3: bool = false;
 }
 

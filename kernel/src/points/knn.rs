@@ -1,21 +1,24 @@
 //! The k nearest points, into a caller's buffer, sorted.
 //!
-//! The buffer is kept one of three ways, by k ([`Keep`]): sorted, a new
+//! The buffer is kept one of two ways, by k ([`Keep`]): sorted, a new
 //! point's slot found walking down from the end with each later point
-//! moved up as it is passed (k <= [`STEPPED_MAX`]); sorted, the slot found
-//! the same way and the later points then moved up in one copy (k <=
-//! [`SORTED_MAX`]); past that, a binary max-heap on (squared distance,
-//! index), sorted in place when the search ends: O(log k) per accepted
-//! point and O(k log k) for the final sort, where insertion costs O(k)
-//! per point. The order is total (indices are distinct), so all three
-//! keep exactly the k first points in it: the same answer, bit for bit.
+//! moved up as it is passed (k <= [`SORTED_MAX`]); past that, a binary
+//! max-heap on (squared distance, index), sorted in place when the search
+//! ends: O(log k) per accepted point and O(k log k) for the final sort,
+//! where insertion costs O(k) per point. The order is total (indices are
+//! distinct), so both keep exactly the k first points in it: the same
+//! answer, bit for bit.
 //!
-//! The thresholds, measured (the knn bench's uniform sets, `KDRAY_KNN_K`
-//! from 10 to 2,000, kdray / kiddo, two interleaved rounds): the copy
-//! overtakes the stepped walk above k = 32 (3-D k = 64 0.86x -> 0.91x
-//! kiddo, k = 24 1.02x -> 0.98-1.00x), the heap overtakes the copy above
-//! k = 128 (3-D k = 256 0.78x -> 0.87x, 8-D 1.11x -> 1.23-1.33x). Tried
-//! and lost: the slot found by a binary search without branches (3-D
+//! The threshold, measured (the knn bench's uniform sets,
+//! `KDRAY_KNN_K=32,64,128,256,512`, kdray / kiddo, two interleaved
+//! rounds): kept sorted at k = 256 instead of a heap, 2-D gains
+//! (0.84-0.85x -> 0.91-0.93x) but 3-D (0.87-0.88x -> 0.79-0.80x) and 8-D
+//! (1.26-1.30x -> 1.14-1.16x) lose; at 512 every D loses (0.49-0.85x
+//! against 0.81-1.20x). Tried and lost: the walk finding the slot first
+//! and the later points then moved up in one copy (`ptr::copy`, a
+//! `memmove` whose size classes mispredict): 2-D k = 64 and 128
+//! 0.81-0.84x against the walk's 0.89-0.95x, 3-D 0.77-0.93x against
+//! 0.88-1.01x; the slot found by a binary search without branches (3-D
 //! k = 64 0.63x against the heap's 0.66x: each step waits on the last
 //! step's load); every buffer filled as a heap and heapsorted once full,
 //! as kiddo fills unsorted and sorts once (2-D k = 10 to 128
@@ -37,10 +40,6 @@ use super::scalar::query_is_valid;
 use super::search::Accumulator;
 use super::{distance2, Neighbour, PointTreeN, Scalar};
 
-/// The largest k whose sorted insertion moves each later point up as it
-/// passes it (module docs).
-pub(crate) const STEPPED_MAX: usize = 32;
-
 /// The largest k kept sorted; larger ones use the heap (module docs).
 pub(crate) const SORTED_MAX: usize = 128;
 
@@ -48,11 +47,8 @@ pub(crate) const SORTED_MAX: usize = 128;
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Keep {
     /// Sorted; each later point moved up on its own, as the walk down
-    /// from the end compares it (k <= [`STEPPED_MAX`]).
-    Stepped,
-    /// Sorted; the slot found walking down from the end, then the later
-    /// points moved up in one copy (k <= [`SORTED_MAX`]).
-    Scanned,
+    /// from the end compares it (k <= [`SORTED_MAX`]).
+    Sorted,
     /// A max-heap, sorted when the search ends.
     Heap,
 }
@@ -90,8 +86,7 @@ impl<'o, S: Scalar> Knn<'o, S> {
     #[inline(always)]
     fn new(out: &'o mut [Neighbour<S>], max_d2: S) -> Knn<'o, S> {
         let keep = match out.len() {
-            ..=STEPPED_MAX => Keep::Stepped,
-            k if k <= SORTED_MAX => Keep::Scanned,
+            ..=SORTED_MAX => Keep::Sorted,
             _ => Keep::Heap,
         };
         Knn {
@@ -169,38 +164,6 @@ impl<'o, S: Scalar> Knn<'o, S> {
             j -= 1;
         }
         put(run, j, n);
-    }
-
-    /// Sorted insertion for a larger k: the slot found by walking down
-    /// from the end, then the later points moved up one slot in one copy.
-    fn insert_scanned(&mut self, n: Neighbour<S>) {
-        let kept = self.make_room();
-        let Some((_, staying)) = self
-            .out
-            .get_mut(..=kept)
-            .and_then(|run| run.split_last_mut())
-        else {
-            return;
-        };
-        // The kept points after `n`, walking down from the end.
-        let later = staying.iter().rev().take_while(|&&p| after(p, n)).count();
-        let Some(moved) = self.out.get_mut(kept - later..=kept) else {
-            return;
-        };
-        // The later points up one slot in one copy (a `memmove`). Tried
-        // safe: `copy_within`, whose range checks stay (a panic path,
-        // firmware/); a loop moving one point at a time: 2-D and 3-D
-        // k = 128 0.82-0.86x -> 0.72-0.78x kiddo.
-        if later < moved.len() {
-            let p = moved.as_mut_ptr();
-            // SAFETY: `moved` holds at least `later + 1` points (checked
-            // just above), so the source `moved[..later]` and the
-            // destination `moved[1..=later]` both lie inside it; both
-            // pointers derive from the one `p`, `ptr::copy` allows the
-            // overlap, and `Neighbour` is `Copy` (nothing to drop).
-            unsafe { core::ptr::copy(p, p.add(1), later) };
-        }
-        put(moved, 0, n);
     }
 
     /// Heap insertion of a point known to belong in the answer.
@@ -296,8 +259,7 @@ impl<S: Scalar> Accumulator<S> for Knn<'_, S> {
         }
         let n = Neighbour { index, d2 };
         match self.keep {
-            Keep::Stepped => self.insert_sorted(n),
-            Keep::Scanned => self.insert_scanned(n),
+            Keep::Sorted => self.insert_sorted(n),
             Keep::Heap => self.insert_heap(n),
         }
         if self.len == k {
@@ -447,11 +409,10 @@ mod tests {
         }
     }
 
-    /// Each way the buffer is kept (stepped, scanned, the heap), filled
-    /// or not, through the scan that offers every point: the k first of
-    /// all points sorted by (distance, index). Points on a lattice of 5
-    /// values per axis, so distances tie. Small enough for Miri (the
-    /// scanned insertion's copy is `unsafe`).
+    /// Each way the buffer is kept (sorted, the heap), filled or not,
+    /// through the scan that offers every point: the k first of all points
+    /// sorted by (distance, index). Points on a lattice of 5 values per
+    /// axis, so distances tie.
     #[test]
     fn every_way_of_keeping_matches_a_sort() {
         const N: usize = 160;
@@ -464,7 +425,7 @@ mod tests {
         });
         let q = [2.0, 1.5, 3.0];
         // Every point, sorted by insertion (the oracle shares no code
-        // with the buffer's three ways).
+        // with the buffer's two ways).
         let mut all: [Neighbour; N] = core::array::from_fn(|i| Neighbour {
             index: i as u32,
             d2: distance2(&points[i], &q),
@@ -478,14 +439,7 @@ mod tests {
         }
         for max_d2 in [f32::INFINITY, 3.0] {
             let within = all.iter().filter(|n| n.d2 <= max_d2).count();
-            for k in [
-                5,
-                STEPPED_MAX,
-                STEPPED_MAX + 1,
-                SORTED_MAX,
-                SORTED_MAX + 1,
-                N + 3,
-            ] {
+            for k in [5, SORTED_MAX, SORTED_MAX + 1, N + 3] {
                 let mut out = [Neighbour::NONE; N + 3];
                 let found = knn_brute(&points, q, max_d2, &mut out[..k]);
                 assert_eq!(found, k.min(within), "k {k} max {max_d2}");

@@ -314,6 +314,7 @@ impl Job for TreeletWalks<'_, '_> {
 /// How many rays take turns through the treelets: four (two ran at 1.6x
 /// the one-plane walk on random rays, four at 1.7-1.8x, eight as four;
 /// `benches/treelets.rs`).
+#[cfg(target_arch = "x86_64")]
 pub(crate) const TURNS: usize = 4;
 
 #[cfg(target_arch = "x86_64")]

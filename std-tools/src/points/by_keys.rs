@@ -1,10 +1,9 @@
 //! Points of all other sizes (2-D `f32`, and from 4-D `f32` and 2-D `f64`
 //! on), moved once a level: a node's median is found among its
-//! coordinates on the split axis (the keys, [`key_of_rank`]), then one pass writes each
-//! point to its side of the other buffer, where the children's points then
-//! are. No point moves
-//! twice a level, and no branch depends on the side, a coin toss around a
-//! median.
+//! coordinates on the split axis (the keys, [`key_of_rank`]), then one
+//! pass writes each point to its side of the other buffer, where the
+//! children's points then are. No point moves twice a level, and no
+//! branch depends on the side, a coin toss around a median.
 //!
 //! Points and indices lie in separate arrays ([`Columns`]), so that the
 //! array that ends in leaf order is the kernel's coordinate array once

@@ -3,9 +3,12 @@
 //! The buffer is kept one of two ways, by k ([`Keep`]): sorted, a new
 //! point's slot found walking down from the end with each later point
 //! moved up as it is passed (k <= [`SORTED_MAX`]); past that, a binary
-//! max-heap on (squared distance, index), sorted in place when the search
-//! ends: O(log k) per accepted point and O(k log k) for the final sort,
-//! where insertion costs O(k) per point. The order is total (indices are
+//! max-heap on (squared distance, index), filled unsorted and built once
+//! full by Floyd's method (O(k), where a sift-up per point costs
+//! O(k log k) and a mispredicted exit each: 2-D and 3-D k = 256 to 2000
+//! 0.77-0.89x -> 0.80-0.91x kiddo), sorted in place when the search ends:
+//! O(log k) per accepted point and O(k log k) for the final sort, where
+//! insertion costs O(k) per point. The order is total (indices are
 //! distinct), so both keep exactly the k first points in it: the same
 //! answer, bit for bit.
 //!
@@ -107,6 +110,12 @@ impl<'o, S: Scalar> Knn<'o, S> {
     fn finish(self) -> usize {
         let Knn { out, len, keep, .. } = self;
         if keep == Keep::Heap {
+            // Never filled: still unsorted, not yet a heap.
+            if len < out.len() {
+                if let Some(h) = out.get_mut(..len) {
+                    heapify(h);
+                }
+            }
             // Heapsort: move the worst to the end, restore the heap before it.
             let mut end = len;
             while end > 1 {
@@ -180,22 +189,20 @@ impl<'o, S: Scalar> Knn<'o, S> {
             put(self.out, 0, n);
             sift_down(self.out, 0);
         } else {
-            let mut j = self.len;
+            put(self.out, self.len, n);
             self.len += 1;
-            // Sift up.
-            while j > 0 {
-                let parent = (j - 1) / 2;
-                let Some(&p) = self.out.get(parent) else {
-                    break;
-                };
-                if !after(n, p) {
-                    break;
-                }
-                put(self.out, j, p);
-                j = parent;
+            if self.len == k {
+                heapify(self.out);
             }
-            put(self.out, j, n);
         }
+    }
+}
+
+/// Floyd's heap construction: every inner node sifted down, the last
+/// first.
+fn heapify<S: Scalar>(h: &mut [Neighbour<S>]) {
+    for j in (0..h.len() / 2).rev() {
+        sift_down(h, j);
     }
 }
 

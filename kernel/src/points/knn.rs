@@ -4,9 +4,9 @@
 //! point's slot found walking down from the end with each later point
 //! moved up as it is passed (k <= [`SORTED_MAX`]); past that, a binary
 //! max-heap on (squared distance, index), filled unsorted and built once
-//! full by Floyd's method (O(k), where a sift-up per point costs
-//! O(k log k) and a mispredicted exit each: 2-D and 3-D k = 256 to 2000
-//! 0.77-0.89x -> 0.80-0.91x kiddo), sorted in place when the search ends:
+//! full by Floyd's method (tried: each point sifted up as it arrives, a
+//! mispredicted loop exit per point: 2-D and 3-D k = 256 to 2000
+//! 0.80-0.91x -> 0.77-0.89x kiddo), sorted in place when the search ends:
 //! O(log k) per accepted point and O(k log k) for the final sort, where
 //! insertion costs O(k) per point. The order is total (indices are
 //! distinct), so both keep exactly the k first points in it: the same

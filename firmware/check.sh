@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The no-panic proof and the firmware figures (README, "Firmware figures").
+# The no-panic proof and the firmware figures (docs/results.md, "Firmware").
 # Links the image for thumbv7em-none-eabihf in the release and size
 # profiles (a link error naming kdray_firmware_reached_a_panic_path means
 # a panic path is reachable), prints its .text, builds the same image for

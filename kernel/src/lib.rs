@@ -54,8 +54,8 @@
 //! [`MAX_DEPTH`]; none can panic, so a hostile or corrupt blob costs an
 //! `Err` at boot, never a fault. For a smaller stack, build the blob with
 //! a depth limit and trace it as a [`ShallowTree`] of that depth (a stack
-//! entry per level; 940 bytes in all for one ray at depth 24 on a
-//! Cortex-M4F, the README's firmware figures).
+//! entry per level; the measured bytes per entry point are in
+//! `docs/results.md`, "Firmware").
 //!
 //! ## Guarantees
 //! - **No panics** for any blob, ray or query, validated or not (fuzzed:

@@ -4,45 +4,19 @@
 //! point's slot found walking down from the end with each later point
 //! moved up as it is passed (k <= [`SORTED_MAX`]); past that, a binary
 //! max-heap on (squared distance, index), filled unsorted and built once
-//! full by Floyd's method (tried: each point sifted up as it arrives, a
-//! mispredicted loop exit per point: 2-D and 3-D k = 256 to 2000
-//! 0.80-0.91x -> 0.77-0.89x kiddo), sorted in place when the search ends:
-//! O(log k) per accepted point and O(k log k) for the final sort, where
-//! insertion costs O(k) per point. The order is total (indices are
-//! distinct), so both keep exactly the k first points in it: the same
-//! answer, bit for bit.
-//!
-//! The threshold, measured (the knn bench's uniform sets,
-//! `KDRAY_KNN_K=32,64,128,256,512`, kdray / kiddo, two interleaved
-//! rounds): kept sorted at k = 256 instead of a heap, 2-D gains
-//! (0.84-0.85x -> 0.91-0.93x) but 3-D (0.87-0.88x -> 0.79-0.80x) and 8-D
-//! (1.26-1.30x -> 1.14-1.16x) lose; at 512 every D loses (0.49-0.85x
-//! against 0.81-1.20x). Tried and lost: the walk finding the slot first
-//! and the later points then moved up in one copy (`ptr::copy`, a
-//! `memmove` whose size classes mispredict): 2-D k = 64 and 128
-//! 0.81-0.84x against the walk's 0.89-0.95x, 3-D 0.77-0.93x against
-//! 0.88-1.01x; the slot found by a binary search without branches (3-D
-//! k = 64 0.63x against the heap's 0.66x: each step waits on the last
-//! step's load); every buffer filled as a heap and heapsorted once full,
-//! as kiddo fills unsorted and sorts once (2-D k = 10 to 128
-//! 0.77-1.08x -> 0.60-0.95x); from 33 to 128, filled unsorted and sorted
-//! once full by Shell's method (Ciura's gaps): 2-D and 3-D 0.82-0.98x ->
-//! 0.61-0.87x. Both sorts' exits mispredict more often than the walk's
-//! one exit per insertion. Also lost, from 33 to 128: a leaf chunk's
-//! accepted points (judged against the bound as the chunk starts)
-//! gathered without a branch, sorted by insertion and merged into the
-//! buffer from its end, no walk or copy per point: 2-D and 3-D k = 64
-//! and 128 0.80-0.93x -> 0.57-0.65x kiddo (mispredicts 338 -> 267 a
-//! query at 2-D k = 64, callgrind, but 1.3x the instructions: the stale
-//! bound lets whole chunks in, each run's sort is quadratic and each
-//! merge steps over most of the buffer); the slot counted and the later
-//! points moved by a fixed-length loop of selects: 0.84x -> 0.30x. From
-//! 33 to 128, filled unsorted and sorted once full by `core`'s
-//! `sort_unstable_by`: 2-D and 3-D k = 128 0.85-0.89x -> 0.95-0.98x, but
-//! it keeps a panic path (a comparison that is not a total order), which
-//! the firmware image refuses; by a quicksort of our own (Lomuto's
-//! partition without a branch on the side, runs of up to 8 or 12 sorted
-//! by insertion or by compare-and-select): 0.77-0.91x.
+//! full by Floyd's method, sorted in place when the search ends. The order
+//! is total (indices are distinct), so both keep exactly the k first
+//! points in it: the same answer, bit for bit.
+
+// Tried and lost (the knn bench's uniform sets, kdray / kiddo):
+// - the heap from k = 256 down: 3-D 0.87x -> 0.79x, 8-D 1.28x -> 1.15x; sorted past 512: every D loses;
+// - each heap point sifted up as it arrives: k = 256-2000 0.80-0.91x -> 0.77-0.89x (a mispredicted exit a point);
+// - the slot found first, the later points moved in one `ptr::copy`: 2-D k = 64-128 0.89-0.95x -> 0.81-0.84x;
+// - the slot by a branch-free binary search: 3-D k = 64 0.63x, each step waits on the last one's load;
+// - filled unsorted, sorted once full (heapsort, Shell's gaps, our quicksort): 0.60-0.91x, their exits mispredict;
+// - a leaf chunk's accepted points sorted and merged: k = 64-128 0.57-0.65x (1.3x the instructions);
+// - the later points moved by a fixed-length select loop: 0.84x -> 0.30x;
+// - `core`'s `sort_unstable_by`: k = 128 0.95-0.98x, but it keeps a panic path the firmware image refuses.
 
 use super::nearest::Nearest;
 use super::scalar::query_is_valid;

@@ -23,27 +23,13 @@
 //! stays on one side) or NaN (origin exactly on the plane: NaN fails both
 //! tests, so both children are visited over the whole interval).
 
-// The loop is bound by its node-to-node chain (node load, child index,
-// next node load), not by mispredictions or cache misses: what paid
-// shortened that chain or took work off it. Tried and dropped (bunny
-// camera rays, hits identical):
-// - conditional moves for near/far: 25-30% slower, see the branch below;
-// - unchecked node loads (`get_unchecked`): no gain, the bounds check is
-//   one predicted compare off the chain;
-// - the split loaded straight into a float register, the running closest
-//   hit copied to a local, one slice for one- and many-primitive leaves:
-//   no gain;
-// - a mailbox: no gain, only 8% of a camera ray's triangle tests repeat
-//   one of the last eight;
-// - a prefetch of the far child's children when both are visited (shadow
-//   rays): 7-15% slower; both children's pairs prefetched at every step:
-//   camera rays 2-3% slower, shadow rays 1.00-1.04x (in the any-hit walk
-//   only: 1.00-1.02x, within the noise);
-// - entry points for coherent single rays (Reshetov et al.): eight
-//   consecutive camera rays walked down together while each visits the
-//   same one child, each ray's walk then started there: 0.86-0.91x on
-//   the bunny, teapot and sponza. They part after 1.7-1.8 levels of
-//   their 8-25 steps: the top planes cross every ray's interval.
+// The loop is bound by its node-to-node chain (node load, child index, next
+// node load): what paid shortened that chain. Tried and lost (bunny camera rays):
+// - conditional moves for near/far: 25-30% slower, because the select chain is longer than the mispredicts;
+// - unchecked node loads, the split loaded as a float, a local copy of the best hit: no gain (off the chain);
+// - a mailbox: no gain, only 8% of a camera ray's triangle tests repeat one of the last eight;
+// - prefetching the far child's children: 7-15% slower on shadow rays, 2-3% on camera rays;
+// - entry points for 8 coherent rays (Reshetov et al.): 0.86-0.91x, they part after ~2 of 8-25 steps.
 
 use super::cell_ray::CellRay;
 use super::counts::{Tally, TraversalCounts};
@@ -142,17 +128,8 @@ impl<'a, T: Tally> Visit<'a, T> for AnyVisit<'_> {
     /// crowded with its own triangle's neighbours, which it leaves without
     /// hitting, and ends at a light in open space; its occluder, if any,
     /// lies between. From the far end the walk crosses empty cells to the
-    /// occluder. Bunny shadow rays (`matrix.sh`'s, first 65,536): 52.7 ->
-    /// 37.9 nodes and 19.6 -> 11.3 triangles a ray, 1.45-1.65x the rays a
-    /// second on the bunny, sponza and teapot. Tried: an order chosen per
-    /// node by the builder, held beside the tree, first Nah & Manocha's
-    /// SATO (the larger cell first), then after Ize & Hansen's RTSAH (the
-    /// child with the larger occlusion chance per subtree node first, the
-    /// chance taken as 2 x its triangles' area / its cell's area, at most
-    /// 1): bunny shadow rays 40.5-40.7 nodes and 12.8-13.0 triangles a
-    /// ray, 0.92-1.01x the rays a second on the three meshes; either rule
-    /// applied only where it prefers a child by 4x or 16x: the same walk
-    /// as far first. So the node carries no order bit.
+    /// occluder.
+    // Tried: a per-node order from the builder (SATO, RTSAH): 0.92-1.01x far-first, so the node carries no order bit.
     const FAR_FIRST: bool = true;
 
     #[inline(always)]
@@ -236,10 +213,7 @@ impl<'a> TriangleTree<'a> {
     ) -> Hit {
         // The root clip first: a ray that misses the tree's box (most
         // instances a scene's ray meets) skips the shear's divisions.
-        // (Tried: the shear built from this dominant axis, not found
-        // again: the firmware's `.text` grew 120 B at `opt-level = "s"`,
-        // and inlined whole it left a panic path; the second search is a
-        // few compares, and callgrind counts no more instructions.)
+        // Tried: the shear built from this dominant axis: +120 B firmware `.text` and a panic path, no fewer instructions.
         let Some(cr) = CellRay::new(ray, dominant_axis(&ray.dir), &self.bounds) else {
             return Hit::MISS;
         };

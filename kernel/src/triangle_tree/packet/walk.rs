@@ -21,45 +21,20 @@
 //! lane by lane as single rays (`LaneRays::alone`); a coherent packet walks
 //! in lanes to the end, even with one lane left.
 //!
-//! Where the time goes (8-wide bunny camera tiles): ~28 interior steps per
-//! packet (~40% of the time; 71% of them send every lane to the same
-//! child), ~10 triangle tests (~35%), set-up and output (~15-20%). The step
-//! is bound by its node-to-node chain, as the single ray's is.
+//! The step is bound by its node-to-node chain, as the single ray's is.
 
-// Tried and dropped (8-wide bunny camera tiles unless said, interleaved,
-// hits identical every time):
-// - per-lane near/far for mixed-sign packets (each lane's near child by
-//   masks and blends): random rays ~0.6-0.8x single rays, camera no gain;
-// - selects instead of the near-or-far branch: 15-40% slower, as
-//   conditional moves were for single rays;
-// - a branch-free step (both children's `t_split` one step ahead, the next
-//   node picked by selects): 14% slower, the selects' chain costs more
-//   than the mispredictions it saves;
-// - a leaner one-sided step (push only when both children are visited):
-//   3.5% slower; the unconditional push stays;
-// - a frustum walk (one scalar interval for the packet, bounds of every
-//   lane's `t_split`, every lane tested in leaves): exact, but 20% slower:
-//   its scalar step took as long as the lane step, and the per-packet
-//   reductions came on top;
-// - two packets walked in lockstep (two chains overlapped): 5% slower, two
-//   walks' state does not fit the registers;
-// - entry points for groups of packets (one lane's path replayed by the
-//   next seven packets): 2% slower, plus 5% for the walk's start-anywhere
-//   form; the shared descent is ~7 of ~30 steps;
-// - the descent as an inner loop ending at a leaf, or out of line: no
-//   gain (4-wide 3% slower);
-// - the child pair read once and indexed by the near bit: 11% slower;
-//   loading the far child's children ahead as a prefetch: 3% slower;
-// - unchecked node and stack reads: slower; the stack index taken modulo
-//   `MAX_DEPTH`: ~1%, not worth wrapped entries;
-// - going straight through nodes with an empty child (no `t_split`, all
-//   lanes kept): 4.8x slower, the lanes lose their culling; the empty-child
-//   drop as a mask, or children by index arithmetic: no gain;
-// - leaves without the early exit when no lane passes: 6% slower;
-// - finishing a lone lane as a single ray: 3-11% slower once empty cells
-//   were skipped at the parent (up to two lanes: 13% slower still).
-// Not built: a mailbox (0.8 of ~10 triangle tests per packet repeat one,
-// about what the check would cost).
+// Tried and lost (8-wide bunny camera tiles, interleaved, hits identical):
+// - per-lane near/far for mixed-sign packets: 0.6-0.8x single rays, because the blends cost more than the lanes share;
+// - selects instead of the near-or-far branch: 15-40% slower, because the select chain is longer than the mispredicts;
+// - a branch-free step (both children's t_split ahead): 14% slower, for the same reason;
+// - pushing only when both children are visited: 3.5% slower (one more branch per node);
+// - a frustum walk (one scalar interval per packet): 20% slower, because its scalar step costs a lane step;
+// - two packets in lockstep: 5% slower, because two walks' state does not fit the registers;
+// - shared entry points for groups of packets: 2% slower, the shared descent is ~7 of ~30 steps;
+// - the child pair read once and indexed by the near bit: 11% slower; prefetching the far grandchildren: 3% slower;
+// - unchecked node and stack reads: slower; going through empty children: 4.8x slower (lanes lose their culling);
+// - leaves without the early exit when no lane passes: 6% slower; a lone lane finished as a single ray: 3-11% slower;
+// - not built: a mailbox (0.8 of ~10 triangle tests a packet repeat one, about what the check would cost).
 
 use super::super::walk::{LeafIter, STACK};
 use super::super::TriangleTree;
@@ -319,10 +294,8 @@ impl<'a> TriangleTree<'a> {
         };
         loop {
             let axis = node.axis_bits();
-            // Even one lane left in a subtree walks on in lanes: finishing
-            // it as a single ray (its own set-up and stack) cost more than
-            // the packet steps it saved, once empty cells were skipped at
-            // their parent (3-11% slower).
+            // Even one lane left in a subtree walks on in lanes (finishing it
+            // as a single ray lost; see the tries above).
             let step = if let (Some(&org), Some(&inv)) = (lr.org.get(axis), lr.inv.get(axis)) {
                 // Compute parametric distance along each lane to the split plane.
                 let t_split = (V::splat(node.split()) - org) * inv;

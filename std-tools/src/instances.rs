@@ -273,7 +273,7 @@ pub fn build_scene(
     // validation names.
     if let Some(instance) = boxes
         .iter()
-        .position(|b| *b != Bounds::EMPTY && !b.in_range())
+        .position(|b| *b != Bounds::EMPTY && !kdray_kernel::bounds_in_range(b))
     {
         return Err(SceneBuildError::OutOfRange {
             instance,

@@ -71,17 +71,6 @@ impl Bounds {
         (0..3).all(|a| p[a] >= self.min[a] && p[a] <= self.max[a])
     }
 
-    /// Is every coordinate within `±`[`MAX_COORD`](crate::MAX_COORD), the
-    /// range the builders hold vertices to (false for NaN)? The rule for an
-    /// instance's world box too, so an instanced scene holds no coordinate
-    /// a flat build of it would refuse.
-    #[inline]
-    #[must_use]
-    pub fn in_range(&self) -> bool {
-        let max = crate::MAX_COORD;
-        self.min.iter().chain(&self.max).all(|c| c.abs() <= max)
-    }
-
     /// Is every coordinate finite and `min <= max` on every axis?
     pub(crate) fn is_valid(&self) -> bool {
         (0..3).all(|a| {

@@ -347,7 +347,7 @@ impl<'a> Scene<'a> {
                 });
             };
             let w = inst.world_bounds(&mesh.bounds());
-            if !w.in_range() {
+            if !crate::triangle::bounds_in_range(&w) {
                 return Err(SceneError::InstanceOutOfRange { instance });
             }
             if !(self.bounds.contains(w.min) && self.bounds.contains(w.max)) {

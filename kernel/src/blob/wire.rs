@@ -110,7 +110,7 @@ impl Header {
     }
 }
 
-/// CRC-32C ([`super::crc32c`]) of a whole blob, the four bytes at
+/// CRC-32C (Castagnoli, `blob/crc32c.rs`) of a whole blob, the four bytes at
 /// [`CHECKSUM_OFFSET`] read as zero: every error of up to 3 flipped bits
 /// anywhere in the blob, header included, changes it.
 #[must_use]

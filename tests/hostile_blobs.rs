@@ -129,6 +129,110 @@ fn every_bit_flip_is_refused_or_harmless() {
     }
 }
 
+/// The bunny pattern: the sign bits of two vertex coordinates
+/// flipped. A word-wise FNV-1a checksum let any two sign flips cancel (the
+/// multiply by an odd prime keeps bit 31 to itself); CRC-32C refuses every
+/// pair.
+#[test]
+fn two_flipped_sign_bits_are_refused() {
+    let (blob, t) = good_blob();
+    let bytes = blob.as_bytes();
+    // The triangles are the last section: 9 coordinates of 4 bytes each.
+    let start = bytes.len() - t.len() * 36;
+    let signs: Vec<usize> = (start..bytes.len()).step_by(4).map(|w| w + 3).collect();
+    for (n, &a) in signs.iter().enumerate() {
+        for &b in &signs[n + 1..] {
+            let mut m = bytes.to_vec();
+            m[a] ^= 0x80;
+            m[b] ^= 0x80;
+            match Blob::from_bytes(&m).tree() {
+                Err(BlobError::Checksum { .. }) => {}
+                other => panic!("sign bits at bytes {a} and {b}: {other:?}"),
+            }
+        }
+    }
+}
+
+/// Flips `k` distinct random bits of `bytes`.
+fn flip_bits(rng: &mut Rng, bytes: &[u8], k: usize) -> (Vec<u8>, Vec<usize>) {
+    let mut m = bytes.to_vec();
+    let mut bits = Vec::with_capacity(k);
+    while bits.len() < k {
+        let bit = rng.below(bytes.len() * 8);
+        if !bits.contains(&bit) {
+            bits.push(bit);
+            m[bit / 8] ^= 1 << (bit % 8);
+        }
+    }
+    (m, bits)
+}
+
+/// Random k-bit flips, k = 1..8, no checksum resealed: every flip of up to
+/// 3 bits is refused (CRC-32C's Hamming distance); more may in principle
+/// validate (a 2^-32 chance), and then must still trace without a panic.
+#[test]
+fn random_multi_bit_flips_are_refused() {
+    let (blob, _) = good_blob();
+    let mut rng = Rng::new(21);
+    for k in 1..=8 {
+        for _ in 0..2000 {
+            let (m, bits) = flip_bits(&mut rng, blob.as_bytes(), k);
+            match Blob::from_bytes(&m).tree() {
+                Err(_) => {}
+                Ok(t) if k > 3 => trace_some(&t),
+                Ok(_) => panic!("bits {bits:?} flipped and the blob still validates"),
+            }
+        }
+    }
+}
+
+/// The same for a point tree and a scene blob, whose checksum is the
+/// same function over the same header field.
+#[test]
+fn random_multi_bit_flips_in_point_and_scene_blobs_are_refused() {
+    use kdray::kernel::{PointTree, Scene};
+    let mut rng = Rng::new(22);
+    let points: Vec<[f32; 3]> = (0..60)
+        .map(|_| std::array::from_fn(|_| rng.range(-2.0, 2.0)))
+        .collect();
+    let built = kdray::tools::points::build_points(&points, &Default::default()).unwrap();
+    let point_blob = kdray::tools::blob::write_point_tree(&built).unwrap();
+    let (mesh, instances) = kdray::tools::instances::generated_level(3, 4.0, 5);
+    let scene_blob = kdray::tools::instances::build_scene(
+        &mesh,
+        instances,
+        Default::default(),
+        &BuildParams::default(),
+    )
+    .unwrap()
+    .write()
+    .unwrap();
+    assert!(PointTree::from_bytes(point_blob.as_bytes()).is_ok());
+    assert!(Scene::from_bytes(scene_blob.as_bytes()).is_ok());
+    for k in 1..=8 {
+        for _ in 0..300 {
+            let (m, bits) = flip_bits(&mut rng, point_blob.as_bytes(), k);
+            let m = Blob::from_bytes(&m);
+            if let Ok(t) = PointTree::from_bytes(m.as_bytes()) {
+                assert!(k > 3, "point blob, bits {bits:?} flipped and it validates");
+                let _ = t.knn([0.0; 3], &mut [kdray::kernel::Neighbour::NONE; 4]);
+            }
+            let (m, bits) = flip_bits(&mut rng, scene_blob.as_bytes(), k);
+            let m = Blob::from_bytes(&m);
+            if let Ok(s) = Scene::from_bytes(m.as_bytes()) {
+                assert!(k > 3, "scene blob, bits {bits:?} flipped and it validates");
+                let ray = Ray {
+                    origin: [0.0; 3],
+                    tmin: 0.0,
+                    dir: [1.0, 0.5, 0.25],
+                    tmax: f32::INFINITY,
+                };
+                let _ = s.closest_hit(&ray, !0);
+            }
+        }
+    }
+}
+
 #[test]
 fn header_fields_are_checked() {
     let (blob, _) = good_blob();
@@ -145,12 +249,20 @@ fn header_fields_are_checked() {
         err(&with(8, 0xFFFE_0000)),
         BlobError::BadEndianness { found: 0xFFFE_0000 }
     );
-    assert_eq!(err(&with(12, 1)), BlobError::OldVersion { found: 1 });
-    assert!(err(&with(12, 1)).to_string().contains("kdray build"));
-    assert_eq!(
-        err(&with(12, 3)),
-        BlobError::UnsupportedVersion { found: 3 }
-    );
+    for old in [1, 2] {
+        assert_eq!(err(&with(12, old)), BlobError::OldVersion { found: old });
+        let msg = err(&with(12, old)).to_string();
+        assert!(
+            msg.contains("older kdray") && msg.contains("`kdray build`"),
+            "{msg}"
+        );
+    }
+    for future in [0, 4] {
+        assert_eq!(
+            err(&with(12, future)),
+            BlobError::UnsupportedVersion { found: future }
+        );
+    }
     assert_eq!(
         err(&with(16, 2)),
         BlobError::WrongKind {

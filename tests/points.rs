@@ -5,8 +5,8 @@
 
 use kdray::kernel::wire::{blob_checksum, CHECKSUM_OFFSET, HEADER_LEN};
 use kdray::kernel::{
-    distance2, knn_brute, nearest_brute, within_brute, BlobError, Neighbour, PointTree, PointTreeN,
-    Scalar, WriteError,
+    distance2, knn_brute, max_point_coord, max_point_coord_log2, nearest_brute, within_brute,
+    BlobError, Neighbour, PointTree, PointTreeN, Scalar, WriteError,
 };
 use kdray::tools::blob::{write_point_tree, Blob};
 use kdray::tools::points::{build_points, knn_all, PointParams};
@@ -85,12 +85,14 @@ fn queries<const D: usize, S: Coord>(points: &[[S; D]], seed: u64) -> Vec<[S; D]
         .map(|_| std::array::from_fn(|_| S::of(1.4 * unit(&mut r) - 0.2)))
         .collect();
     q.extend(points.iter().step_by(points.len() / 8 + 1).copied());
-    let far = [1e6, -1e6, 3e5, -50.0, 1e30];
+    // Far outside, yet inside the coordinate range up to 16-D (2^60 =
+    // 1.15e18; beyond it a query gets the empty answer, tested apart).
+    let far = [1e6, -1e6, 3e5, -50.0, 1e18];
     q.push(std::array::from_fn(|a| S::of(far[a % far.len()])));
     q.push(std::array::from_fn(|a| {
         S::of(if a == 0 { -50.0 } else { 0.5 })
     }));
-    q.push([S::of(-1e30); D]);
+    q.push([S::of(-1e18); D]);
     q
 }
 
@@ -292,6 +294,119 @@ fn nan_queries_are_empty_and_nan_points_are_refused() {
     let e = build_points(&bad, &PointParams::default()).unwrap_err();
     assert!(e.to_string().contains("point 42"), "{e}");
     assert!(e.to_string().contains("axis 1"), "{e}");
+}
+
+/// The case: points (1e20, 0, 0) and (4e20, 0, 0), query
+/// (5e20, 0, 0): the squared distances overflow f32, both are inf, and the
+/// lower index won at inf. Such points are now refused, naming the point.
+#[test]
+fn points_beyond_the_range_are_refused_naming_the_point() {
+    assert_eq!(max_point_coord_log2::<3, f32>(), 61);
+    assert_eq!(max_point_coord_log2::<16, f32>(), 60);
+    assert_eq!(max_point_coord_log2::<64, f32>(), 59);
+    assert_eq!(max_point_coord_log2::<128, f32>(), 59);
+    assert_eq!(max_point_coord_log2::<129, f32>(), 58);
+    assert_eq!(max_point_coord_log2::<3, f64>(), 509);
+    assert_eq!(max_point_coord::<3, f32>(), 2f32.powi(61));
+    assert_eq!(max_point_coord::<2, f64>(), 2f64.powi(510));
+    let e = build_points(
+        &[[1e20f32, 0.0, 0.0], [4e20, 0.0, 0.0]],
+        &PointParams::default(),
+    )
+    .unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        msg.contains("point 0") && msg.contains("axis 0") && msg.contains("2^61"),
+        "{msg}"
+    );
+    // The first coordinate past the bound is refused, the bound itself kept.
+    let m = max_point_coord::<3, f32>();
+    let past = f32::from_bits(m.to_bits() + 1);
+    let e = build_points(&[[0.0; 3], [0.0, 0.0, -past]], &PointParams::default()).unwrap_err();
+    assert!(
+        e.to_string().contains("point 1") && e.to_string().contains("axis 2"),
+        "{e}"
+    );
+    assert!(build_points(&[[0.0; 3], [0.0, 0.0, -m]], &PointParams::default()).is_ok());
+}
+
+/// At the bound, the largest squared distance in `D` dimensions is finite
+/// (the derivation in `max_point_coord_log2`), and the tree equals brute
+/// force: every corner of the box `[-M, M]^D` queried from every corner.
+fn corners_stay_finite<const D: usize, S: Coord>() {
+    let m = max_point_coord::<D, S>();
+    let zero = S::of(0.0);
+    let neg = zero - m;
+    let corners: Vec<[S; D]> = (0..1usize << D.min(6))
+        .map(|c| std::array::from_fn(|a| if a < 6 && c >> a & 1 == 1 { m } else { neg }))
+        .collect();
+    let tree_blob = write_point_tree(&build_points(&corners, &PointParams::default()).unwrap());
+    let blob = tree_blob.unwrap();
+    let tree = PointTreeN::<D, S>::from_bytes(blob.as_bytes()).unwrap();
+    let k = corners.len();
+    for q in &corners {
+        let (mut got, mut want) = (vec![Neighbour::NONE; k], vec![Neighbour::NONE; k]);
+        assert_eq!(tree.knn(*q, &mut got), k);
+        knn_brute(&corners, *q, S::INFINITY, &mut want);
+        assert_eq!(bits(&got), bits(&want), "{q:?}");
+        assert!(got.iter().all(|n| n.d2.is_finite()), "{q:?}: {got:?}");
+    }
+}
+
+#[test]
+fn distances_at_the_range_bound_are_finite() {
+    corners_stay_finite::<1, f32>();
+    corners_stay_finite::<3, f32>();
+    corners_stay_finite::<16, f32>();
+    corners_stay_finite::<2, f64>();
+    corners_stay_finite::<5, f64>();
+}
+
+/// A query beyond the range (or NaN) gets the documented empty answer from
+/// every query and from brute force, never a neighbour at inf.
+#[test]
+fn queries_beyond_the_range_get_the_empty_answer() {
+    let points = point_set::<3, f32>(0, 100, 5);
+    let built = build_points(&points, &PointParams::default()).unwrap();
+    let tree = built.view().unwrap();
+    let m = max_point_coord::<3, f32>();
+    for q in [
+        [5e20f32, 0.0, 0.0],
+        [0.0, -m * 2.0, 0.0],
+        [0.0, 0.0, f32::NAN],
+    ] {
+        let mut out = [Neighbour::NONE; 3];
+        assert_eq!(tree.knn(q, &mut out), 0, "{q:?}");
+        assert_eq!(out, [Neighbour::NONE; 3]);
+        assert_eq!(knn_brute(&points, q, f32::INFINITY, &mut out), 0);
+        assert_eq!(tree.nearest(q), None);
+        assert_eq!(nearest_brute(&points, q, f32::INFINITY), None);
+        let mut n = 0;
+        tree.for_each_within(q, f32::INFINITY, |_| n += 1);
+        assert_eq!(n, 0);
+    }
+    // At the bound itself the answer is the brute force's, finite.
+    let q = [m, -m, m];
+    let mut out = [Neighbour::NONE; 2];
+    assert_eq!(tree.knn(q, &mut out), 2);
+    assert!(out.iter().all(|n| n.d2.is_finite()), "{out:?}");
+}
+
+/// A point blob whose root box reaches beyond the range is refused.
+#[test]
+fn a_point_blob_beyond_the_range_is_refused() {
+    let points = point_set::<3, f32>(0, 100, 5);
+    let mut built = build_points(&points, &PointParams::default()).unwrap();
+    assert!(
+        Blob::from_bytes(write_point_tree(&built).unwrap().as_bytes())
+            .point_tree::<3, f32>()
+            .is_ok()
+    );
+    built.bounds[0][1][1] = 2f32.powi(62);
+    let blob = write_point_tree(&built).unwrap();
+    let e = blob.point_tree::<3, f32>().unwrap_err();
+    assert_eq!(e, BlobError::PointsOutOfRange { limit_log2: 61 });
+    assert!(e.to_string().contains("2^61"), "{e}");
 }
 
 #[test]

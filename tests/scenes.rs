@@ -542,3 +542,42 @@ fn scene_first_hits_number_triangles_in_the_flattened_order() {
     assert_eq!(total, seen);
     assert!(seen > 40, "{seen} hits: too few to see the order");
 }
+
+/// A node scale of 1e30 on an in-range mesh: the flat build of the same
+/// triangles refuses them (beyond `MAX_COORD`), so the scene builder
+/// refuses the instance and the kernel refuses a scene that holds it.
+#[test]
+fn instances_beyond_the_coordinate_range_are_refused() {
+    use kdray::tools::instances::SceneBuildError;
+    let meshes = small_meshes();
+    let fine = Instance::new(0, placement([0.0, 0.0, 1.0], 0.0, [1.0; 3], [0.0; 3]), 0, 1).unwrap();
+    let huge = Instance::new(
+        1,
+        placement([0.0, 0.0, 1.0], 0.0, [1e30; 3], [0.0; 3]),
+        1,
+        1,
+    )
+    .unwrap();
+    let flat = flatten_scene(&meshes, &[huge]);
+    assert!(build(&flat, BuilderKind::default(), &BuildParams::default()).is_err());
+    let e = build_scene(
+        &meshes,
+        vec![fine, huge],
+        BuilderKind::default(),
+        &BuildParams::default(),
+    )
+    .unwrap_err();
+    assert!(
+        matches!(e, SceneBuildError::OutOfRange { instance: 1, .. }),
+        "{e}"
+    );
+    assert!(e.to_string().contains("MAX_COORD"), "{e}");
+    // Assembled by hand around the builder: the kernel refuses it too.
+    let trees = build_all(&meshes);
+    let views = views_of(&trees, &meshes);
+    let instances = [fine, huge];
+    let boxes = world_boxes(&mesh_bounds(&meshes).unwrap(), &instances);
+    let top = build_top_level(&boxes);
+    let e = Scene::from_parts(&views, &instances, &top.nodes, &top.prims, top.bounds).unwrap_err();
+    assert_eq!(e, SceneError::InstanceOutOfRange { instance: 1 });
+}

@@ -331,8 +331,9 @@ KdrayStatus kdray_points_shape(const KdrayPointTree *tree, size_t *dim, size_t *
 
 // The nearest point to `query[0..dim]`, written to `*nearest`: smallest
 // squared distance, at equal distance the lowest index (exactly as brute
-// force). An empty tree or a query with a NaN coordinate gives the
-// missing-neighbour record.
+// force). An empty tree or a query with a coordinate that is NaN or
+// beyond the point range (2^61 for 3-D f32, `kdray_kernel::max_point_coord`)
+// gives the missing-neighbour record.
 //
 // # Preconditions
 // - `tree`: opened by `kdray_points_open`, its blob alive and unchanged;
@@ -364,7 +365,8 @@ KdrayStatus kdray_nearest_f64(const KdrayPointTree *tree,
 // The `k` nearest points to `query[0..dim]`, written to `out[0..*found]`
 // nearest first (equal distance: lower index first), exactly as brute
 // force; `*found` is `k` unless the tree has fewer points. `out[*found..k]`
-// is left unchanged. `k == 0` or a NaN query finds nothing.
+// is left unchanged. `k == 0` or a query with a coordinate that is NaN or
+// beyond the point range finds nothing.
 //
 // # Preconditions
 // - `tree`, `query`, `dim`: as `kdray_nearest_f32`.

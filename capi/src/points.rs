@@ -343,8 +343,9 @@ fn tidy<S: CScalar>(out: *mut S::Record, n: usize) {
 
 /// The nearest point to `query[0..dim]`, written to `*nearest`: smallest
 /// squared distance, at equal distance the lowest index (exactly as brute
-/// force). An empty tree or a query with a NaN coordinate gives the
-/// missing-neighbour record.
+/// force). An empty tree or a query with a coordinate that is NaN or
+/// beyond the point range (2^61 for 3-D f32, `kdray_kernel::max_point_coord`)
+/// gives the missing-neighbour record.
 ///
 /// # Preconditions
 /// - `tree`: opened by `kdray_points_open`, its blob alive and unchanged;
@@ -388,7 +389,8 @@ pub unsafe extern "C" fn kdray_nearest_f64(
 /// The `k` nearest points to `query[0..dim]`, written to `out[0..*found]`
 /// nearest first (equal distance: lower index first), exactly as brute
 /// force; `*found` is `k` unless the tree has fewer points. `out[*found..k]`
-/// is left unchanged. `k == 0` or a NaN query finds nothing.
+/// is left unchanged. `k == 0` or a query with a coordinate that is NaN or
+/// beyond the point range finds nothing.
 ///
 /// # Preconditions
 /// - `tree`, `query`, `dim`: as `kdray_nearest_f32`.

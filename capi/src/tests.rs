@@ -11,7 +11,7 @@ use kdray_kernel::{include_aligned, Hit, Neighbour, PointTree, Ray, TriangleTree
 use std::string::ToString;
 use std::vec::Vec;
 
-static CUBE: &kdray_kernel::Aligned<[u8]> = include_aligned!("../../kernel/golden/cube-v2.kdt");
+static CUBE: &kdray_kernel::Aligned<[u8]> = include_aligned!("../../kernel/golden/cube-v3.kdt");
 static GRID: &kdray_kernel::Aligned<[u8]> = include_aligned!("../tests/data/grid-100.kdt");
 
 const CLOSED: KdrayTriangleTree = KdrayTriangleTree {

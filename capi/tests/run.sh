@@ -40,7 +40,7 @@ g++ $cxxflags capi/examples/camera.cpp -L"$lib" -l:libkdray_capi.so -Wl,-rpath,"
 ldd "$out/capi_test_dynamic" | grep libkdray_capi.so >/dev/null
 ldd "$out/camera_dynamic" | grep libkdray_capi.so >/dev/null
 
-cube=kernel/golden/cube-v2.kdt
+cube=kernel/golden/cube-v3.kdt
 grid=capi/tests/data/grid-100.kdt
 for kind in static dynamic; do
   d=$out/$kind

@@ -28,7 +28,7 @@ use kdray_kernel::Neighbour;
 use kdray_kernel::{include_aligned, Aligned, Hit, PointTree, Ray, ShallowTree, TriangleTree};
 
 /// The triangle scene, in flash (`kdray build kernel/golden/cube.obj`).
-static SCENE: &Aligned<[u8]> = include_aligned!("../../kernel/golden/cube-v2.kdt");
+static SCENE: &Aligned<[u8]> = include_aligned!("../../kernel/golden/cube-v3.kdt");
 /// The point set (commands in `capi/tests/data/README.md`).
 static POINTS: &Aligned<[u8]> = include_aligned!("../../capi/tests/data/grid-100.kdt");
 

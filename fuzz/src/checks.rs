@@ -7,9 +7,12 @@
 //! - [`packet_vs_single`]: a small scene, coordinates mostly on a coarse
 //!   grid (hits on edges, vertices and split planes) plus raw floats;
 //!   packets of hostile rays with inactive lanes: lanes == single rays.
+//!   With 1 to 8 bits flipped after (mode bit 1), 1 to 3 are always
+//!   refused (the CRC-32C checksum).
 //! - [`scene_blob`]: a valid scene blob with bytes overwritten (checksum
-//!   resealed or not), or arbitrary bytes: an error or a scene whose
-//!   answers are its brute force's.
+//!   resealed or not) or 1 to 8 bits flipped (1 to 3 always refused), or
+//!   arbitrary bytes: an error or a scene whose answers are its brute
+//!   force's.
 //! - [`tree_vs_brute`]: the same scenes with every builder: the tree's
 //!   closest hit is the brute-force one bit for bit, any hit agrees.
 //! - [`deforming`]: the same scenes moved over a few frames, a kept
@@ -140,7 +143,8 @@ impl<'a> Bytes<'a> {
 /// Blob loading and tracing never panic.
 pub fn blob(data: &[u8]) {
     let mut r = Bytes::new(data);
-    let bytes = if r.u8() & 1 == 0 {
+    let mode = r.u8();
+    let bytes = if mode & 1 == 0 {
         r.rest().to_vec()
     } else {
         // A header the loader accepts up to the sections' contents.
@@ -177,10 +181,20 @@ pub fn blob(data: &[u8]) {
         b[..64].copy_from_slice(bytemuck::bytes_of(&sum));
         b
     };
+    let mut bytes = bytes;
+    let flipped = if mode & 2 != 0 {
+        flip_bits(&mut r, &mut bytes)
+    } else {
+        0
+    };
     let blob = Blob::from_bytes(&bytes);
     let Ok(tree) = TriangleTree::from_bytes(blob.as_bytes()) else {
         return;
     };
+    assert!(
+        flipped == 0 || flipped > 3,
+        "{flipped} flipped bits passed the checksum"
+    );
     // Rays from the body's bytes (the tail doubles as ray data).
     let mut rays = Bytes::new(&bytes[bytes.len().min(64)..]);
     for _ in 0..8 {
@@ -501,15 +515,26 @@ pub fn scene_blob(data: &[u8]) {
         r.rest().to_vec()
     };
     let mut edited = mode & 2 != 0;
+    let mut flipped = 0;
     if mode & 2 == 0 && !bytes.is_empty() {
-        let edits = r.u8() % 8;
-        overwrite(&mut r, &mut bytes, edits, mode & 1 == 1);
-        edited |= edits > 0;
+        // Bit 6 (not 2: older regression inputs set bits 0 to 5).
+        if mode & 0x40 == 0 {
+            let edits = r.u8() % 8;
+            overwrite(&mut r, &mut bytes, edits, mode & 1 == 1);
+            edited |= edits > 0;
+        } else {
+            flipped = flip_bits(&mut r, &mut bytes);
+            edited = true;
+        }
     }
     let blob = Blob::from_bytes(&bytes);
     let Ok(scene) = Scene::from_bytes(blob.as_bytes()) else {
         return;
     };
+    assert!(
+        flipped == 0 || flipped > 3,
+        "{flipped} flipped bits passed the checksum"
+    );
     for _ in 0..8 {
         let ray = r.ray();
         let mask = r.u32() | 1;
@@ -542,7 +567,8 @@ pub fn scene_blob(data: &[u8]) {
 /// brute force bit for bit; with bytes of the blob overwritten (checksum
 /// resealed when the mode's bit 0 is set), loading returns an error or a
 /// tree, and neither a checked nor an unchecked load ever panics or hangs
-/// in a query.
+/// in a query; with 1 to 8 bits flipped instead (mode bit 3), 1 to 3 are
+/// always refused by the checked load.
 pub fn point_blob(data: &[u8]) {
     let mut r = Bytes::new(data);
     let mode = r.u8();
@@ -576,8 +602,14 @@ fn point_blob_at<const D: usize, S: kdray::kernel::Scalar>(
         return;
     };
     let mut bytes = blob.as_bytes().to_vec();
-    let edits = r.u8() % 4;
-    overwrite(r, &mut bytes, edits, mode & 1 == 1);
+    let (edits, flipped) = if mode & 8 == 0 {
+        let edits = r.u8() % 4;
+        overwrite(r, &mut bytes, edits, mode & 1 == 1);
+        (edits, 0)
+    } else {
+        let flipped = flip_bits(r, &mut bytes);
+        (1, flipped)
+    };
     let edited = Blob::from_bytes(&bytes);
     let queries: Vec<[S; D]> = (0..8)
         .map(|_| std::array::from_fn(|_| of(r.component())))
@@ -597,6 +629,10 @@ fn point_blob_at<const D: usize, S: kdray::kernel::Scalar>(
         assert!(edits > 0, "a freshly built point blob was refused");
         return;
     };
+    assert!(
+        flipped == 0 || flipped > 3,
+        "{flipped} flipped bits passed the checksum"
+    );
     run(&tree);
     if edits == 0 {
         for q in &queries {
@@ -620,6 +656,28 @@ fn point_blob_at<const D: usize, S: kdray::kernel::Scalar>(
 /// A k for query `q`, from its first coordinate's bits.
 fn r_k<const D: usize, S: kdray::kernel::Scalar>(q: &[S; D]) -> usize {
     q.first().map_or(0, |c| (c.bits() % 97) as usize)
+}
+
+/// Flips 1 to 8 distinct bits of a blob (non-empty) where the input says,
+/// the checksum left as it was; returns how many. CRC-32C catches every
+/// error of up to 3 bits, so those blobs must be refused.
+fn flip_bits(r: &mut Bytes<'_>, bytes: &mut [u8]) -> usize {
+    let n = bytes.len() * 8;
+    if n == 0 {
+        return 0;
+    }
+    let k = usize::from(r.u8() % 8) + 1;
+    let mut bits = [usize::MAX; 8];
+    for slot in 0..k {
+        // Distinct positions: a repeat would flip a bit back.
+        let mut bit = r.u32() as usize % n;
+        while bits[..slot].contains(&bit) {
+            bit = (bit + 1) % n;
+        }
+        bits[slot] = bit;
+        bytes[bit / 8] ^= 1 << (bit % 8);
+    }
+    k
 }
 
 /// Overwrites `edits` bytes of a blob (non-empty) where the input says,

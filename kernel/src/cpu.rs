@@ -4,7 +4,8 @@
 //! architecture (SSE2 on x86-64), where an 8-lane vector is two 4-lane
 //! registers and a 16-lane one four. The packet walks and the leaf lane
 //! tests are therefore compiled a second and third time, inside
-//! `#[target_feature]` functions for x86-64-v3 (AVX2, FMA, BMI) and
+//! `#[target_feature]` functions for x86-64-v3 (AVX2, FMA, BMI; SSE4.2,
+//! whose `crc32` computes the blob checksum) and
 //! x86-64-v4 (AVX-512 F/BW/DQ/VL), and the entry points pick one by the
 //! processor they run on, as Embree does. The processor is asked once
 //! (`cpuid`, and `xgetbv` for whether the operating system saves the
@@ -161,6 +162,7 @@ fn detect() -> Isa {
     let zmm_saved = xcr0 & 0b1110_0110 == 0b1110_0110; // and opmask, ZMM
     let v3 = ymm_saved
         && bit(l1.ecx, 12) // FMA
+        && bit(l1.ecx, 20) // SSE4.2 (x86-64-v2; the blob checksum's crc32)
         && bit(l1.ecx, 23) // POPCNT
         && bit(l1.ecx, 28) // AVX
         && bit(l1.ecx, 29) // F16C

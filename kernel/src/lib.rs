@@ -29,8 +29,8 @@
 //! use glam::Vec3;
 //! use kdray_kernel::{include_aligned, Ray, TriangleTree};
 //!
-//! // A unit cube with a tilted quad inside (`kdray build cube.obj -o cube-v2.kdt`).
-//! static SCENE: &kdray_kernel::Aligned<[u8]> = include_aligned!("../golden/cube-v2.kdt");
+//! // A unit cube with a tilted quad inside (`kdray build cube.obj -o cube-v3.kdt`).
+//! static SCENE: &kdray_kernel::Aligned<[u8]> = include_aligned!("../golden/cube-v3.kdt");
 //!
 //! let tree = TriangleTree::from_bytes(&SCENE.bytes)?; // validated once, zero-copy
 //! let ray = Ray::new(Vec3::new(0.3, 0.6, -1.0), Vec3::Z);
@@ -90,7 +90,11 @@
 //!   lies outside gets the same answer from tree, packets and brute force
 //!   and never a panic, but may miss triangles whose edge functions
 //!   overflow `f32`. Triangles whose projected edge products underflow
-//!   `f32` (edges below about 2^-63 units) are missed.
+//!   `f32` (edges below about 2^-63 units) are missed. Points and queries
+//!   within `±`[`max_point_coord`] (2^61 for 3-D `f32`, 2^60 up to 16-D:
+//!   no squared distance overflows); the point builders refuse points
+//!   outside it and a query outside it gets the empty answer, as a NaN
+//!   query does.
 //! - **Secondary rays need no epsilon**: [`SurfacePoint`] gives a hit's
 //!   point with a conservative error bound and spawns rays from it, offset
 //!   along the geometric normal past that bound (PBRT-v3's
@@ -126,15 +130,17 @@ pub use geometry::{
 /// version of the crate) so the types match.
 pub use glam;
 pub use points::{
-    distance2, knn_brute, nearest_brute, within_brute, BufferTooSmall, Neighbour, PointNode,
-    PointNodeKind, PointShape, PointTree, PointTreeN, Scalar, MAX_POINT_FIELD,
+    distance2, knn_brute, max_point_coord, max_point_coord_log2, nearest_brute, within_brute,
+    BufferTooSmall, Neighbour, PointNode, PointNodeKind, PointShape, PointTree, PointTreeN, Scalar,
+    MAX_POINT_FIELD,
 };
 pub use scene::{
     inverse_affine, Instance, MeshEntry, Scene, SceneError, SceneHit, IDENTITY, KIND_SCENE,
     MESH_ALIGN,
 };
 pub use triangle::{
-    any_hit_brute, closest_hit_brute, first_hits_brute, SurfacePoint, Triangle, MAX_COORD,
+    any_hit_brute, bounds_in_range, closest_hit_brute, first_hits_brute, SurfacePoint, Triangle,
+    MAX_COORD,
 };
 pub use triangle_tree::packet::{Packet, Packet16, Packet4, Packet8, PacketWidth};
 pub use triangle_tree::{

@@ -4,6 +4,7 @@ use crate::rng::Rng;
 use glam::Vec3;
 use kdray_kernel::Bounds;
 use kdray_kernel::Ray;
+use kdray_kernel::MAX_COORD;
 
 /// A pinhole camera.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -19,7 +20,12 @@ pub struct Camera {
 }
 
 impl Camera {
-    /// A camera framing `focus` from the front-right-above, the whole box in view.
+    /// A camera framing `focus` from the front-right-above, the whole box
+    /// in view. The eye stays within `±`[`MAX_COORD`]: a ray whose origin
+    /// lies beyond the kernel's range may miss every triangle (its edge
+    /// functions overflow `f32`), so for a box near that range the eye
+    /// comes closer and the field of view widens (up to
+    /// [`Camera::WIDEST_FOV`] degrees) instead.
     #[must_use]
     pub fn framing(focus: &Bounds) -> Camera {
         let lo = Vec3::from(focus.min);
@@ -27,8 +33,21 @@ impl Camera {
         let center = (lo + hi) * 0.5;
         let radius = ((hi - lo).length() * 0.5).max(1e-6);
         let fov_deg = 40.0f32;
-        let dist = radius / (fov_deg.to_radians() * 0.5).sin() * 1.05;
         let dir = Vec3::new(0.55, 0.35, 1.0).normalize();
+        let fits = radius * 1.05;
+        let wanted = fits / (fov_deg.to_radians() * 0.5).sin();
+        // The farthest along `dir` the eye may go on each axis, with a
+        // margin for the rounding of `center + dir * dist`.
+        let room = (0..3)
+            .map(|a| (MAX_COORD * 0.99 - center[a].abs()) / dir[a].abs())
+            .fold(f32::INFINITY, f32::min)
+            .max(0.0);
+        let dist = wanted.min(room);
+        let fov_deg = if dist >= wanted {
+            fov_deg
+        } else {
+            (2.0 * (fits / dist).min(1.0).asin().to_degrees()).min(Camera::WIDEST_FOV)
+        };
         Camera {
             eye: center + dir * dist,
             target: center,
@@ -36,6 +55,9 @@ impl Camera {
             fov_deg,
         }
     }
+
+    /// The widest field of view [`Camera::framing`] opens, in degrees.
+    pub const WIDEST_FOV: f32 = 150.0;
 
     /// The ray through the centre of pixel `(x, y)` of a `w` x `h` image
     /// (row 0 at the top).

@@ -218,6 +218,14 @@ pub enum SceneBuildError {
         /// Why.
         error: BuildError,
     },
+    /// An instance's world box reaches beyond `±`[`kdray_kernel::MAX_COORD`],
+    /// the range the flat build holds vertices to.
+    OutOfRange {
+        /// The instance's index.
+        instance: usize,
+        /// Its world box.
+        world: Bounds,
+    },
     /// A blob could not be written.
     Write(WriteError),
 }
@@ -226,6 +234,13 @@ impl std::fmt::Display for SceneBuildError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             SceneBuildError::Build { mesh, error } => write!(f, "mesh {mesh}: {error}"),
+            SceneBuildError::OutOfRange { instance, world } => write!(
+                f,
+                "instance {instance}'s world box {:?}..{:?} reaches beyond the kernel's range of ±{:e} (kdray_kernel::MAX_COORD), which a flat build of the same triangles refuses",
+                world.min,
+                world.max,
+                kdray_kernel::MAX_COORD
+            ),
             SceneBuildError::Write(e) => write!(f, "{e}"),
         }
     }
@@ -237,7 +252,8 @@ impl std::error::Error for SceneBuildError {}
 /// over `instances`.
 ///
 /// # Errors
-/// [`SceneBuildError`] naming the mesh whose build failed.
+/// [`SceneBuildError`] naming the mesh whose build failed, or the first
+/// instance whose world box is out of range.
 pub fn build_scene(
     meshes: &[Vec<Triangle>],
     instances: Vec<Instance>,
@@ -252,7 +268,19 @@ pub fn build_scene(
         bounds.push(tree.bounds);
         blobs.push(write_triangle_tree(&tree, tris).map_err(SceneBuildError::Write)?);
     }
-    let top = build_top_level(&world_boxes(&bounds, &instances));
+    let boxes = world_boxes(&bounds, &instances);
+    // An empty box is an instance of a missing mesh, which the scene's
+    // validation names.
+    if let Some(instance) = boxes
+        .iter()
+        .position(|b| *b != Bounds::EMPTY && !kdray_kernel::bounds_in_range(b))
+    {
+        return Err(SceneBuildError::OutOfRange {
+            instance,
+            world: boxes[instance],
+        });
+    }
+    let top = build_top_level(&boxes);
     Ok(SceneParts {
         meshes: blobs,
         instances,

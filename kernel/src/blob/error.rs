@@ -41,10 +41,12 @@ pub enum BlobError {
         /// The version read.
         found: u32,
     },
-    /// A triangle-tree blob of format version 1 (depth-first node order),
-    /// which this kernel no longer reads: rebuild it with `kdray build`.
+    /// A blob of an older format version (1: triangle trees in depth-first
+    /// node order; 1 and 2: the FNV-1a checksum), which this kernel no
+    /// longer reads: rebuild it with `kdray build` (`kdray build-points`
+    /// for a point tree).
     OldVersion {
-        /// The version read (1).
+        /// The version read (1 or 2).
         found: u32,
     },
     /// Node 1 of a triangle tree, the padding slot that puts every child
@@ -145,6 +147,13 @@ pub enum BlobError {
         /// The node's index.
         node: u32,
     },
+    /// A point tree's root box reaches beyond `±2^limit_log2`, the range
+    /// in which no squared distance overflows
+    /// ([`crate::max_point_coord`]).
+    PointsOutOfRange {
+        /// `log2` of the range's bound for the tree's dimension and type.
+        limit_log2: u32,
+    },
     /// A leaf's run does not start where the previous leaf's (depth-first,
     /// below child first) ended: the runs must tile the points exactly.
     LeafOutOfOrder {
@@ -243,11 +252,12 @@ impl fmt::Display for BlobError {
             ),
             UnsupportedVersion { found } => write!(
                 f,
-                "blob format version {found} is not supported (this kernel reads triangle trees and scenes of version 2, point trees of version 1)"
+                "blob format version {found} is not supported (this kernel reads version {})",
+                super::wire::VERSION
             ),
             OldVersion { found } => write!(
                 f,
-                "blob is a version {found} triangle tree (depth-first node order), which this kernel no longer reads: rebuild it from the mesh with `kdray build`"
+                "blob version {found} was written by an older kdray (a weaker checksum), which this kernel no longer reads: rebuild it with `kdray build` (`kdray build-points` for a point tree)"
             ),
             BadPadding { found } => write!(
                 f,
@@ -295,6 +305,10 @@ impl fmt::Display for BlobError {
             BadNodeBounds { node } => write!(
                 f,
                 "node {node} has non-finite or inverted bounds, or bounds outside its parent's or across its split plane"
+            ),
+            PointsOutOfRange { limit_log2 } => write!(
+                f,
+                "the point tree's bounds reach beyond ±2^{limit_log2}, where squared distances could overflow (`kdray build-points` refuses such points)"
             ),
             LeafOutOfOrder { node, offset, expected } => write!(
                 f,

@@ -1,6 +1,7 @@
 //! The blob format: the 8-byte node, the header and sections on the wire,
 //! the layout rule every tree obeys, and the errors that name what is wrong.
 
+mod crc32c;
 mod error;
 pub mod node;
 mod validate;

@@ -4,7 +4,7 @@
 //! offset  size  field
 //!      0     8  magic "kdray\0\0\0"
 //!      8     4  endianness check 0xFEFF (the blob is little-endian)
-//!     12     4  format version (2 for triangle trees, 1 for point trees)
+//!     12     4  format version (3 for every kind)
 //!     16     4  kind: 1 triangle tree, 3 point tree (2: an older 3-D point layout)
 //!     20     4  max depth of any node (root = 0)
 //!     24     4  node count
@@ -20,11 +20,12 @@
 //!
 //! Everything is 4-byte aligned, so a blob in 4-byte aligned memory is read
 //! in place: [`Header`] and each section are cast from the bytes, never
-//! copied. The checksum is FNV-1a over the blob's little-endian 32-bit words
-//! (every section is a multiple of 4 bytes) with the checksum field read as
-//! zero, so it covers the header's counts and bounds too; fast enough to
-//! verify on every load.
+//! copied. The checksum is CRC-32C over the whole blob with the checksum
+//! field read as zero, so it covers the header's counts and bounds too:
+//! any 1 to 3 flipped bits are caught, and it is fast enough to verify on
+//! every load (the `crc32` instruction where the processor has it).
 
+use super::crc32c::Crc32c;
 use super::error::{BlobError, WriteError};
 use super::MAX_DEPTH;
 use crate::geometry::Bounds;
@@ -34,23 +35,13 @@ use bytemuck::{Pod, Zeroable};
 pub const MAGIC: [u8; 8] = *b"kdray\0\0\0";
 /// The endianness check word.
 pub const ENDIAN_CHECK: u32 = 0xFEFF;
-/// The format version of triangle trees this kernel writes and reads
-/// (cache-line treelets, `validate`'s module docs); version 1 (depth-first
-/// order) is refused with [`BlobError::OldVersion`].
-pub const VERSION: u32 = 2;
-/// The format version of point trees (depth-first order).
-pub const POINTS_VERSION: u32 = 1;
-
-/// The version a blob of `kind` must have: point trees keep version 1;
-/// triangle trees and scenes (whose top level and meshes are in treelets)
-/// are version 2.
-const fn version_of(kind: u32) -> u32 {
-    if kind == KIND_POINTS {
-        POINTS_VERSION
-    } else {
-        VERSION
-    }
-}
+/// The format version of every blob kind this kernel writes and reads
+/// (the CRC-32C checksum; triangle trees in cache-line treelets,
+/// `validate`'s module docs). Older versions, all sealed by a word-wise
+/// FNV-1a checksum, are refused with [`BlobError::OldVersion`]: 2
+/// (triangle trees and scenes) and 1 (point trees, and triangle trees in
+/// depth-first order).
+pub const VERSION: u32 = 3;
 /// The kind of a triangle tree blob.
 pub const KIND_TRIANGLES: u32 = 1;
 /// The kind of a point tree blob (`points::blob` has its layout; kind 2
@@ -119,28 +110,22 @@ impl Header {
     }
 }
 
-const FNV_OFFSET: u32 = 0x811C_9DC5;
-const FNV_PRIME: u32 = 0x0100_0193;
-
-/// FNV-1a over the little-endian 32-bit words of a whole blob, the word at
-/// [`CHECKSUM_OFFSET`] read as zero (a trailing partial word, which no
-/// valid blob has, is folded in byte by byte).
+/// CRC-32C (Castagnoli, `blob/crc32c.rs`) of a whole blob, the four bytes at
+/// [`CHECKSUM_OFFSET`] read as zero: every error of up to 3 flipped bits
+/// anywhere in the blob, header included, changes it.
 #[must_use]
 pub fn blob_checksum(bytes: &[u8]) -> u32 {
-    let mut words = bytes.chunks_exact(4);
-    let mut h = FNV_OFFSET;
-    for (i, w) in (&mut words).enumerate() {
-        let word = if i * 4 == CHECKSUM_OFFSET {
-            0
-        } else {
-            u32::from_le_bytes([w[0], w[1], w[2], w[3]])
-        };
-        h = (h ^ word).wrapping_mul(FNV_PRIME);
-    }
-    for &b in words.remainder() {
-        h = (h ^ u32::from(b)).wrapping_mul(FNV_PRIME);
-    }
-    h
+    let (head, rest) = bytes
+        .split_at_checked(CHECKSUM_OFFSET)
+        .unwrap_or((bytes, &[]));
+    let field = rest.len().min(4);
+    let (_, tail) = rest.split_at_checked(field).unwrap_or((rest, &[]));
+    let zeros = [0u8; 4];
+    Crc32c::new()
+        .update(head)
+        .update(zeros.get(..field).unwrap_or(&[]))
+        .update(tail)
+        .finish()
 }
 
 /// Writes a blob: the header (its counts and checksum filled in), then the
@@ -165,7 +150,7 @@ pub(crate) fn write_blob(
     let header = Header {
         magic: MAGIC,
         endian: ENDIAN_CHECK,
-        version: version_of(kind),
+        version: VERSION,
         kind,
         max_depth,
         node_count: nodes?,
@@ -246,19 +231,18 @@ impl<'a> Sections<'a> {
                 found: header.endian,
             });
         }
-        // Kind before version: the version a blob must have is its kind's.
         if header.kind != kind {
             return Err(BlobError::WrongKind {
                 expected: kind,
                 found: header.kind,
             });
         }
-        if kind == KIND_TRIANGLES && header.version == 1 {
+        if (1..VERSION).contains(&header.version) {
             return Err(BlobError::OldVersion {
                 found: header.version,
             });
         }
-        if header.version != version_of(kind) {
+        if header.version != VERSION {
             return Err(BlobError::UnsupportedVersion {
                 found: header.version,
             });
@@ -330,7 +314,7 @@ pub(crate) fn verify_checksum(header: &Header, blob: &[u8]) -> Result<(), BlobEr
 ///
 /// ```
 /// static SCENE: &kdray_kernel::Aligned<[u8]> =
-///     kdray_kernel::include_aligned!("../../golden/cube-v2.kdt");
+///     kdray_kernel::include_aligned!("../../golden/cube-v3.kdt");
 /// let tree = kdray_kernel::TriangleTree::from_bytes(&SCENE.bytes)?;
 /// // Read in place: the tree's triangles are the blob's bytes.
 /// assert_eq!(tree.triangles().as_ptr().cast::<u8>(), SCENE.bytes[SCENE.bytes.len() - 14 * 36..].as_ptr());

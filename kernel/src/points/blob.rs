@@ -22,6 +22,7 @@
 //! with is refused by its shape record ([`BlobError::WrongDimension`],
 //! [`BlobError::WrongScalar`]).
 
+use super::{max_point_coord, max_point_coord_log2};
 use super::{walk_layout, Sections, WriteError, KIND_POINTS};
 use super::{wire, BlobError, Bounds, Header, PointNode, PointNodeKind, PointTreeN, Scalar};
 
@@ -362,6 +363,18 @@ impl<'a, const D: usize, S: Scalar> PointTreeN<'a, D, S> {
         match self.bounds.first() {
             None => return Err(BlobError::NoNodes),
             Some(root) if !box_is_valid(root) => return Err(BlobError::BadNodeBounds { node: 0 }),
+            // Every box nests in the root's and every point lies in its
+            // leaf's box, so this bounds every point.
+            Some(root)
+                if !root
+                    .iter()
+                    .flatten()
+                    .all(|c| c.abs() <= max_point_coord::<D, S>()) =>
+            {
+                return Err(BlobError::PointsOutOfRange {
+                    limit_log2: max_point_coord_log2::<D, S>(),
+                })
+            }
             Some(_) => {}
         }
         let mut next_run = 0usize;

@@ -264,7 +264,8 @@ impl<const D: usize, S: Scalar> PointTreeN<'_, D, S> {
     /// The `out.len()` nearest points to `q`, written to the front of `out`
     /// sorted by squared distance, at equal distance by lower index;
     /// returns how many were found (fewer than `out.len()` only when the
-    /// tree has fewer points). 0 for an empty `out` or a NaN query.
+    /// tree has fewer points). 0 for an empty `out` or a query with a coordinate that is NaN or beyond
+    /// [`max_point_coord`](crate::max_point_coord).
     /// O(k log k) per query at most, for any k.
     ///
     /// # Panics

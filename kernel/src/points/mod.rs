@@ -40,7 +40,7 @@ pub use blob::PointShape;
 pub use knn::knn_brute;
 pub use nearest::nearest_brute;
 pub use node::{PointNode, PointNodeKind, MAX_POINT_FIELD};
-pub use scalar::{distance2, Scalar};
+pub use scalar::{distance2, max_point_coord, max_point_coord_log2, Scalar};
 pub use within::{within_brute, BufferTooSmall};
 
 // Everything the point tree takes from the rest of the kernel: the blob's

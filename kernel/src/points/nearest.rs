@@ -46,7 +46,8 @@ impl<S: Scalar> Accumulator<S> for Nearest<S> {
 impl<const D: usize, S: Scalar> PointTreeN<'_, D, S> {
     /// The nearest point to `q`: smallest squared distance, at equal
     /// distance the lowest index. `None` for an empty tree or a query with
-    /// a NaN coordinate.
+    /// a coordinate that is NaN or beyond
+    /// [`max_point_coord`](crate::max_point_coord).
     ///
     /// # Panics
     /// Never. No allocation; the stack is [`MAX_DEPTH`](crate::MAX_DEPTH) entries.

@@ -35,6 +35,9 @@ pub trait Scalar:
     const ZERO: Self;
     /// Positive infinity.
     const INFINITY: Self;
+    /// The exponent of the largest finite power of two: 127 for `f32`,
+    /// 1023 for `f64`.
+    const TOP_EXP: u32;
 
     /// `self + other` (IEEE, round to nearest).
     #[must_use]
@@ -55,15 +58,22 @@ pub trait Scalar:
     fn to_f64(self) -> f64;
     /// The total order of `f32::total_cmp` / `f64::total_cmp`.
     fn total_cmp(&self, other: &Self) -> core::cmp::Ordering;
+    /// The absolute value (NaN stays NaN).
+    #[must_use]
+    fn abs(self) -> Self;
+    /// `2^e`, exactly, for `e <=` [`Scalar::TOP_EXP`] (clamped there).
+    #[must_use]
+    fn pow2(e: u32) -> Self;
 }
 
 macro_rules! scalar {
-    ($t:ty, $name:literal) => {
+    ($t:ty, $bits:ty, $name:literal) => {
         impl Scalar for $t {
             const NAME: &'static str = $name;
             const BYTES: u32 = core::mem::size_of::<$t>() as u32;
             const ZERO: Self = 0.0;
             const INFINITY: Self = <$t>::INFINITY;
+            const TOP_EXP: u32 = (<$t>::MAX_EXP - 1) as u32;
             #[inline(always)]
             fn add(self, other: Self) -> Self {
                 self + other
@@ -96,11 +106,21 @@ macro_rules! scalar {
             fn total_cmp(&self, other: &Self) -> core::cmp::Ordering {
                 <$t>::total_cmp(self, other)
             }
+            #[inline(always)]
+            fn abs(self) -> Self {
+                <$t>::abs(self)
+            }
+            #[inline(always)]
+            fn pow2(e: u32) -> Self {
+                // The biased exponent field, mantissa zero.
+                let biased = e.min(Self::TOP_EXP) + Self::TOP_EXP;
+                <$t>::from_bits(<$bits>::from(biased) << (<$t>::MANTISSA_DIGITS - 1))
+            }
         }
     };
 }
-scalar!(f32, "f32");
-scalar!(f64, "f64");
+scalar!(f32, u32, "f32");
+scalar!(f64, u64, "f64");
 
 /// The squared distance between `p` and `q`: `d0*d0 + d1*d1 + ...` with
 /// `d = p - q`, summed left to right in `S`. The one expression the tree
@@ -152,8 +172,41 @@ pub(crate) fn larger<S: Scalar>(a: S, b: S) -> S {
     }
 }
 
-/// Is `q` a query the trees answer? NaN coordinates get an empty answer.
+/// `log2` of [`max_point_coord`]: `⌊(TOP_EXP − 2 − ⌈log2 D⌉) / 2⌋`, so 61
+/// for 3-D `f32` points (60 up to 32-D, 59 up to 128-D) and 509 for 3-D
+/// `f64` ones.
+///
+/// Why: with every coordinate of a point and a query within `±2^m`, a
+/// coordinate difference is at most `2^(m+1)` (IEEE subtraction is monotone
+/// and `2^(m+1)` is representable), its square at most `2^(2m+2)`, and the
+/// sum of `D` squares, rounded monotonically too, at most
+/// `2^(⌈log2 D⌉ + 2m + 2) <= 2^TOP_EXP`: finite. A box's gap to the query is
+/// never above a difference of two in-range coordinates, so the pruning
+/// bounds are finite as well, and no distance the queries compare is
+/// `inf` (where two overflowed points would tie and the lower index win).
+#[must_use]
+pub const fn max_point_coord_log2<const D: usize, S: Scalar>() -> u32 {
+    let ceil_log2_d = usize::BITS - D.saturating_sub(1).leading_zeros();
+    (S::TOP_EXP - 2 - ceil_log2_d) / 2
+}
+
+/// The coordinate range of `D`-dimensional points of `S`: every point and
+/// query coordinate must lie within `±` this, `2^`[`max_point_coord_log2`]
+/// (`2^61` = 2.3e18 for 3-D `f32`), where no squared distance overflows.
+/// The builders refuse points beyond it, a point blob whose root box
+/// reaches beyond it is refused ([`crate::BlobError::PointsOutOfRange`]),
+/// and a query beyond it gets the empty answer, as a NaN query does.
+#[inline(always)]
+#[must_use]
+pub fn max_point_coord<const D: usize, S: Scalar>() -> S {
+    S::pow2(max_point_coord_log2::<D, S>())
+}
+
+/// Is `q` a query the trees answer? Coordinates that are NaN or beyond
+/// [`max_point_coord`] get an empty answer.
 #[inline(always)]
 pub(crate) fn query_is_valid<const D: usize, S: Scalar>(q: &[S; D]) -> bool {
-    !q.iter().any(|c| c.is_nan())
+    let limit = max_point_coord::<D, S>();
+    // `<=` is false for NaN.
+    q.iter().all(|c| c.abs() <= limit)
 }

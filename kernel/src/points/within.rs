@@ -49,8 +49,9 @@ impl<S: Scalar, F: FnMut(Neighbour<S>)> Accumulator<S> for Within<S, F> {
 impl<const D: usize, S: Scalar> PointTreeN<'_, D, S> {
     /// Calls `found` once for every point at squared distance `<= r2` from
     /// `q` (the radius is given squared, so "within" is decided by the same
-    /// distance as everywhere else), in tree order. Nothing for a NaN
-    /// query or a NaN `r2`.
+    /// distance as everywhere else), in tree order. Nothing for a query
+    /// with a coordinate that is NaN or beyond
+    /// [`max_point_coord`](crate::max_point_coord), or a NaN `r2`.
     ///
     /// # Panics
     /// Never (unless `found` does). No allocation.

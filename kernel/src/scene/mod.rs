@@ -126,6 +126,12 @@ pub enum SceneError {
         /// The instance's index.
         instance: u32,
     },
+    /// An instance's world box reaches beyond `±`[`MAX_COORD`](crate::MAX_COORD),
+    /// the range a flat build of the same triangles is held to.
+    InstanceOutOfRange {
+        /// The instance's index.
+        instance: u32,
+    },
 }
 
 impl From<BlobError> for SceneError {
@@ -173,6 +179,11 @@ impl fmt::Display for SceneError {
             InstanceOutsideBounds { instance } => write!(
                 f,
                 "instance {instance}'s world box is not inside the scene bounds"
+            ),
+            InstanceOutOfRange { instance } => write!(
+                f,
+                "instance {instance}'s world box reaches beyond the kernel's range of ±{:e} (kdray_kernel::MAX_COORD)",
+                crate::MAX_COORD
             ),
         }
     }
@@ -336,6 +347,9 @@ impl<'a> Scene<'a> {
                 });
             };
             let w = inst.world_bounds(&mesh.bounds());
+            if !crate::triangle::bounds_in_range(&w) {
+                return Err(SceneError::InstanceOutOfRange { instance });
+            }
             if !(self.bounds.contains(w.min) && self.bounds.contains(w.max)) {
                 return Err(SceneError::InstanceOutsideBounds { instance });
             }

@@ -73,6 +73,15 @@ use bytemuck::{Pod, Zeroable};
 /// below `96 · MAX_COORD² < f32::MAX`: no product overflows.
 pub const MAX_COORD: f32 = 1_152_921_504_606_846_976.0;
 
+/// Is every coordinate of the box within `±`[`MAX_COORD`] (false for NaN)?
+/// The rule for an instance's world box too, so an instanced scene holds
+/// no coordinate a flat build of its triangles would refuse.
+#[inline]
+#[must_use]
+pub fn bounds_in_range(b: &Bounds) -> bool {
+    b.min.iter().chain(&b.max).all(|c| c.abs() <= MAX_COORD)
+}
+
 /// A triangle: three vertices. `repr(C)`, Pod, 36 bytes; the blob stores
 /// triangles in this layout, in mesh order.
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]

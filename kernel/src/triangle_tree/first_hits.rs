@@ -58,7 +58,7 @@ impl TriangleTree<'_> {
     /// use glam::Vec3;
     /// use kdray_kernel::{first_hits_brute, Hit, Ray, TriangleTree};
     /// static CUBE: &kdray_kernel::Aligned<[u8]> =
-    ///     kdray_kernel::include_aligned!("../../golden/cube-v2.kdt");
+    ///     kdray_kernel::include_aligned!("../../golden/cube-v3.kdt");
     /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
     ///
     /// // From below the cube, straight up: the floor, a slanted triangle

@@ -58,7 +58,7 @@ impl<'a> TriangleTree<'a> {
     /// ```
     /// use kdray_kernel::TriangleTree;
     /// static CUBE: &kdray_kernel::Aligned<[u8]> =
-    ///     kdray_kernel::include_aligned!("../../golden/cube-v2.kdt");
+    ///     kdray_kernel::include_aligned!("../../golden/cube-v3.kdt");
     /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
     /// assert_eq!(tree.triangles().len(), 14); // six square faces and a quad
     ///

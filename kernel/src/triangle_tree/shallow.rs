@@ -23,7 +23,7 @@ use crate::geometry::{Hit, Ray};
 /// use glam::Vec3;
 /// use kdray_kernel::{Ray, ShallowTree, TriangleTree};
 /// static CUBE: &kdray_kernel::Aligned<[u8]> =
-///     kdray_kernel::include_aligned!("../../golden/cube-v2.kdt");
+///     kdray_kernel::include_aligned!("../../golden/cube-v3.kdt");
 /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
 ///
 /// let shallow = ShallowTree::<24>::new(tree)?;

@@ -172,7 +172,7 @@ impl<'a> TriangleTree<'a> {
     /// use glam::Vec3;
     /// use kdray_kernel::{Hit, Ray, Treelet, TriangleTree};
     /// static CUBE: &kdray_kernel::Aligned<[u8]> =
-    ///     kdray_kernel::include_aligned!("../../golden/cube-v2.kdt");
+    ///     kdray_kernel::include_aligned!("../../golden/cube-v3.kdt");
     /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
     /// let mut lines = vec![Treelet::default(); tree.treelet_count()];
     /// let lined = tree.treelets_into(&mut lines).expect("room for every treelet");

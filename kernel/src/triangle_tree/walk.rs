@@ -172,7 +172,7 @@ impl<'a> TriangleTree<'a> {
     /// use glam::Vec3;
     /// use kdray_kernel::{closest_hit_brute, Hit, Ray, TriangleTree};
     /// static CUBE: &kdray_kernel::Aligned<[u8]> =
-    ///     kdray_kernel::include_aligned!("../../golden/cube-v2.kdt");
+    ///     kdray_kernel::include_aligned!("../../golden/cube-v3.kdt");
     /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
     ///
     /// // From below the cube, straight up: the floor at t = 1.
@@ -257,7 +257,7 @@ impl<'a> TriangleTree<'a> {
     /// use glam::Vec3;
     /// use kdray_kernel::{Ray, TriangleTree};
     /// static CUBE: &kdray_kernel::Aligned<[u8]> =
-    ///     kdray_kernel::include_aligned!("../../golden/cube-v2.kdt");
+    ///     kdray_kernel::include_aligned!("../../golden/cube-v3.kdt");
     /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
     ///
     /// // A shadow ray from a point inside the cube to a light outside it:
@@ -366,7 +366,7 @@ impl<'a> TriangleTree<'a> {
     /// use glam::Vec3;
     /// use kdray_kernel::{Ray, TriangleTree, MISS};
     /// static CUBE: &kdray_kernel::Aligned<[u8]> =
-    ///     kdray_kernel::include_aligned!("../../golden/cube-v2.kdt");
+    ///     kdray_kernel::include_aligned!("../../golden/cube-v3.kdt");
     /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
     ///
     /// // Points on a row inside the cube, towards a light outside it.

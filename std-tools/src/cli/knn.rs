@@ -7,7 +7,7 @@ use super::json::JsonObject;
 use super::{plural, thread_pool, CmdResult};
 use kdray_kernel::{Neighbour, Scalar};
 use kdray_tools::io;
-use kdray_tools::points::{build_points, knn_all, PointParams};
+use kdray_tools::points::{build_points, check_point, knn_all, PointParams};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -72,6 +72,10 @@ fn run_shaped<const D: usize, S: Scalar>(a: &Args) -> CmdResult {
     let what = a.shape.describe();
     let points: Vec<[S; D]> = io::read_records(&a.points, &what)?;
     let queries: Vec<[S; D]> = io::read_records(&a.queries, &what)?;
+    // The kernel answers nothing for such a query; say which one it is.
+    for (i, q) in queries.iter().enumerate() {
+        check_point(i, q).map_err(|e| format!("{}: as a query, {e}", a.queries.display()))?;
+    }
     // Every query has k neighbours only when k <= n: a larger k would only
     // pad each query's records (and ask for k slots per query).
     if a.k > points.len() {

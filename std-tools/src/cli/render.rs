@@ -74,10 +74,19 @@ pub(super) struct View {
 }
 
 impl View {
-    /// Refuses an image of no pixels or too many, and a field of view
-    /// outside (0, 180) degrees.
+    /// Refuses an image of no pixels or too many, an eye beyond the
+    /// kernel's coordinate range (its rays may miss everything), and a
+    /// field of view outside (0, 180) degrees.
     pub(super) fn check(&self) -> Result<(), String> {
         check_image(self.width, self.height, "--width and --height")?;
+        if let Some(eye) = self.eye {
+            if eye.abs().max_element() > kdray_kernel::MAX_COORD {
+                return Err(format!(
+                    "--eye {eye} is beyond the kernel's coordinate range of ±{:e} (kdray_kernel::MAX_COORD), where rays may miss every triangle",
+                    kdray_kernel::MAX_COORD
+                ));
+            }
+        }
         match self.fov {
             Some(f) if !(f > 0.0 && f < 180.0) => {
                 Err(format!("--fov must be between 0 and 180 degrees, not {f}"))

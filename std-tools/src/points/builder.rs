@@ -15,7 +15,8 @@ use super::by_keys::{Columns, FromInput};
 use super::in_place::{in_place, leaf_major, InPlace, Item};
 use super::store::Store;
 use kdray_kernel::{
-    BlobError, PointNode, PointNodeKind, PointTreeN, Scalar, MAX_DEPTH, MAX_POINT_FIELD,
+    max_point_coord, max_point_coord_log2, BlobError, PointNode, PointNodeKind, PointTreeN, Scalar,
+    MAX_DEPTH, MAX_POINT_FIELD,
 };
 use std::fmt;
 
@@ -99,6 +100,19 @@ pub enum PointBuildError {
         /// Its value.
         value: f64,
     },
+    /// A point with a coordinate beyond `±2^limit_log2`
+    /// ([`kdray_kernel::max_point_coord`]), where squared distances could
+    /// overflow.
+    OutOfRange {
+        /// The point's index.
+        point: usize,
+        /// The axis of the first coordinate out of range.
+        axis: usize,
+        /// Its value.
+        value: f64,
+        /// `log2` of the range's bound.
+        limit_log2: u32,
+    },
     /// More points than a tree can index.
     TooManyPoints {
         /// How many there are.
@@ -119,6 +133,16 @@ impl fmt::Display for PointBuildError {
                     "point {point} has a non-finite coordinate {value} (axis {axis})"
                 )
             }
+            PointBuildError::OutOfRange {
+                point,
+                axis,
+                value,
+                limit_log2,
+            } => write!(
+                f,
+                "point {point} has coordinate {value:e} (axis {axis}), beyond the range ±2^{limit_log2} ({:e}) in which squared distances cannot overflow",
+                2f64.powi(*limit_log2 as i32)
+            ),
             PointBuildError::TooManyPoints { count } => write!(
                 f,
                 "{count} points is more than a tree can index ({MAX_POINTS})"
@@ -163,23 +187,50 @@ impl<const D: usize, S: Scalar> BuiltPoints<D, S> {
     }
 }
 
+/// Checks that point `point` is one a tree holds and answers for: every
+/// coordinate finite and within `±`[`kdray_kernel::max_point_coord`]
+/// (queries are held to the same rule: beyond it the kernel answers
+/// nothing).
+///
+/// # Errors
+/// [`PointBuildError::NonFinite`] or [`PointBuildError::OutOfRange`]
+/// naming the point, the axis and the value.
+pub fn check_point<const D: usize, S: Scalar>(
+    point: usize,
+    p: &[S; D],
+) -> Result<(), PointBuildError> {
+    if let Some(axis) = p.iter().position(|c| !c.is_finite()) {
+        return Err(PointBuildError::NonFinite {
+            point,
+            axis,
+            value: p[axis].to_f64(),
+        });
+    }
+    let limit = max_point_coord::<D, S>();
+    if let Some(axis) = p.iter().position(|c| c.abs() > limit) {
+        return Err(PointBuildError::OutOfRange {
+            point,
+            axis,
+            value: p[axis].to_f64(),
+            limit_log2: max_point_coord_log2::<D, S>(),
+        });
+    }
+    Ok(())
+}
+
 /// Builds the tree over `points` (index = position).
 ///
 /// # Errors
 /// [`PointBuildError::NonFinite`] naming the first NaN or infinite
-/// coordinate; [`PointBuildError::TooManyPoints`] past [`MAX_POINTS`].
+/// coordinate, [`PointBuildError::OutOfRange`] the first beyond
+/// [`kdray_kernel::max_point_coord`]; [`PointBuildError::TooManyPoints`]
+/// past [`MAX_POINTS`].
 pub fn build_points<const D: usize, S: Scalar>(
     points: &[[S; D]],
     params: &PointParams,
 ) -> Result<BuiltPoints<D, S>, PointBuildError> {
     for (point, p) in points.iter().enumerate() {
-        if let Some(axis) = p.iter().position(|c| !c.is_finite()) {
-            return Err(PointBuildError::NonFinite {
-                point,
-                axis,
-                value: p[axis].to_f64(),
-            });
-        }
+        check_point(point, p)?;
     }
     if points.len() > MAX_POINTS {
         return Err(PointBuildError::TooManyPoints {

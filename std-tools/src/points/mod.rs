@@ -13,7 +13,8 @@ mod median;
 mod store;
 
 pub use builder::{
-    build_points, default_leaf_size, BuiltPoints, PointBuildError, PointParams, MAX_POINTS,
+    build_points, check_point, default_leaf_size, BuiltPoints, PointBuildError, PointParams,
+    MAX_POINTS,
 };
 
 use kdray_kernel::{Neighbour, PointTreeN, Scalar};

@@ -185,7 +185,7 @@ impl<'a> TriangleTree<'a> {
     /// use glam::Vec3;
     /// use kdray_kernel::{Packet4, TriangleTree};
     /// static CUBE: &kdray_kernel::Aligned<[u8]> =
-    ///     kdray_kernel::include_aligned!("../../../golden/cube-v2.kdt");
+    ///     kdray_kernel::include_aligned!("../../../golden/cube-v3.kdt");
     /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
     ///
     /// // A 2x2 bundle of parallel rays from below the cube.
@@ -307,7 +307,7 @@ impl<'a> TriangleTree<'a> {
     /// use glam::Vec3;
     /// use kdray_kernel::{Hit, Ray, TriangleTree};
     /// static CUBE: &kdray_kernel::Aligned<[u8]> =
-    ///     kdray_kernel::include_aligned!("../../../golden/cube-v2.kdt");
+    ///     kdray_kernel::include_aligned!("../../../golden/cube-v3.kdt");
     /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
     ///
     /// // 11 rays fanning out from inside the cube: a packet of 8, then one of 3.

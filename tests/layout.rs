@@ -1,10 +1,11 @@
 //! Blob version 2's node order: every builder's tree is in the one
 //! treelet order the validator replays (cache-line treelets, see
-//! `kdray_kernel::walk_treelets`), and that order is the only one it
+//! `kdray_kernel::format::walk_treelets`), and that order is the only one it
 //! accepts: two pairs swapped (their parents' child indices fixed, so the
 //! result is still a tree) are refused.
 
-use kdray::kernel::{BlobError, Node, NodeKind, Triangle, TriangleTree, LINE_NODES};
+use kdray::kernel::format::LINE_NODES;
+use kdray::kernel::{BlobError, Node, NodeKind, Triangle, TriangleTree};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use proptest::prelude::*;
 

@@ -42,9 +42,10 @@
 //! level test and the third level's exits replace the child reads).
 //!
 //! The treelets live in the caller's memory ([`TriangleTree::treelets_into`]
-//! writes them and returns the tree that uses them); the blob is unchanged.
+//! writes them and returns the [`TreeletTree`] that uses them); the blob is
+//! unchanged.
 
-use super::TriangleTree;
+use super::{TreeletTree, TriangleTree};
 use crate::blob::{Node, MAX_DEPTH};
 use crate::geometry::{Hit, Ray};
 #[cfg(target_arch = "x86_64")]
@@ -158,10 +159,9 @@ impl<'a> TriangleTree<'a> {
     }
 
     /// Writes the tree's treelets into `buf` and returns the tree that
-    /// walks scattered rays through them (the slice entry points, e.g.
-    /// [`TriangleTree::closest_hits_with`]; single-ray queries and
-    /// coherent batches keep the one-plane walk). A tree whose root is a
-    /// leaf has none.
+    /// walks scattered rays through them (its batch calls,
+    /// [`TreeletTree::closest_hits`]; single rays, packets and coherent
+    /// blocks keep the one-plane walk). A tree whose root is a leaf has none.
     ///
     /// # Errors
     /// [`TreeletBufferTooSmall`] for a buffer shorter than
@@ -170,7 +170,7 @@ impl<'a> TriangleTree<'a> {
     /// # Example
     /// ```
     /// use glam::Vec3;
-    /// use kdray_kernel::{Hit, Ray, Treelet, TriangleTree};
+    /// use kdray_kernel::{Batch, Hit, Ray, Treelet, TriangleTree};
     /// static CUBE: &kdray_kernel::Aligned<[u8]> =
     ///     kdray_kernel::include_aligned!("../../golden/cube-v2.kdt");
     /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
@@ -186,7 +186,7 @@ impl<'a> TriangleTree<'a> {
     ///     })
     ///     .collect();
     /// let mut hits = vec![Hit::MISS; rays.len()];
-    /// lined.closest_hits_scattered(&rays, &mut hits);
+    /// lined.closest_hits(&rays, &mut hits, Batch::default());
     /// for (ray, hit) in rays.iter().zip(&hits) {
     ///     assert!(hit.is_hit()); // the cube is closed
     ///     assert_eq!(hit.bits(), tree.closest_hit(ray).bits());
@@ -196,7 +196,7 @@ impl<'a> TriangleTree<'a> {
     pub fn treelets_into<'t>(
         &self,
         buf: &'t mut [Treelet],
-    ) -> Result<TriangleTree<'t>, TreeletBufferTooSmall>
+    ) -> Result<TreeletTree<'t>, TreeletBufferTooSmall>
     where
         'a: 't,
     {
@@ -258,32 +258,29 @@ impl<'a> TriangleTree<'a> {
             }
             i += 1;
         }
-        Ok(TriangleTree {
+        Ok(TreeletTree::new(TriangleTree {
             lines: &*lines,
             ..*self
-        })
+        }))
     }
 }
 
 impl TriangleTree<'_> {
     /// `hits[i] = closest_hit(&rays[i])` for the first
     /// `min(rays.len(), hits.len())` rays, for rays that share no cells
-    /// (random rays, bounces off a surface): walked in turns, through the
-    /// treelets where the tree has them ([`TriangleTree::treelets_into`])
-    /// and the processor AVX2, otherwise with the one-plane walk (in turns
-    /// on x86-64 when the tree outgrows the cache). The slice entry points
-    /// ([`TriangleTree::closest_hits_with`]) take this path for the blocks
-    /// of 256 rays they find scattered; call it for a batch known to be.
-    ///
-    /// # Panics
-    /// Never. No allocation (the four walks in turns take ~9 KiB of stack).
-    pub fn closest_hits_scattered(&self, rays: &[Ray], hits: &mut [Hit]) {
+    /// (random rays, bounces): walked in turns, through the treelets where
+    /// the tree has them and the processor AVX2, otherwise with the
+    /// one-plane walk (in turns on x86-64 when the tree outgrows the
+    /// cache). The batch calls take this path for the blocks of 256 rays
+    /// they find scattered. No allocation (the four walks in turns take
+    /// ~9 KiB of stack).
+    pub(crate) fn closest_hits_scattered(&self, rays: &[Ray], hits: &mut [Hit]) {
         #[cfg(target_arch = "x86_64")]
         if !self.lines.is_empty() && dispatch(TreeletWalks(self, rays, &mut *hits)) {
             return;
         }
-        if cfg!(target_arch = "x86_64") && self.data_bytes() > super::packet::TURNS_MIN_BYTES {
-            self.closest_hits_stream(rays, hits);
+        if cfg!(target_arch = "x86_64") && self.data_bytes() > super::batch::TURNS_MIN_BYTES {
+            self.closest_hits_in_turns(rays, hits);
         } else {
             for (h, r) in hits.iter_mut().zip(rays) {
                 *h = self.closest_hit(r);
@@ -596,7 +593,7 @@ mod x86 {
     /// comes after the other walks' (`matrix.sh`'s random rays, one core:
     /// bunny 1.15x -> 1.5x the one-plane walk in turns with the prefetch).
     /// Tried: a leaf's triangles prefetched in a turn of their own before
-    /// its test, as `stream.rs` does: teapot 1.17x -> 1.05x, sponza 1.33x
+    /// its test, as `turns.rs` does: teapot 1.17x -> 1.05x, sponza 1.33x
     /// -> 1.22x, the bunny the same; eight walks in turns as four.
     #[inline(always)]
     fn prefetch_exit(tree: &TriangleTree<'_>, code: u32) {

@@ -2,10 +2,11 @@
 //! child before above, the `k`-th interior node met with its children at
 //! `2k + 1` and `2k + 2` (both halves laid out at once, in parallel), then
 //! reordered into the cache-line treelets of blob version 2
-//! ([`kdray_kernel::walk_treelets`], the rule `TriangleTree::from_parts`
+//! ([`kdray_kernel::format::walk_treelets`], the rule `TriangleTree::from_parts`
 //! checks).
 
-use kdray_kernel::{walk_treelets, Axis, Bounds, Node, NodeKind};
+use kdray_kernel::format::walk_treelets;
+use kdray_kernel::{Axis, Bounds, Node, NodeKind};
 
 use super::BuiltTree;
 

@@ -45,7 +45,7 @@ impl TriangleTree<'_> {
     /// use glam::Vec3;
     /// use kdray_kernel::{Batch, Hit, Ray, TriangleTree};
     /// static CUBE: &kdray_kernel::Aligned<[u8]> =
-    ///     kdray_kernel::include_aligned!("../../../golden/cube-v2.kdt");
+    ///     kdray_kernel::include_aligned!("../../golden/cube-v2.kdt");
     /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
     ///
     /// // 11 rays fanning out from inside the cube: a packet of 8, then one of 3.

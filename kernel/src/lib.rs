@@ -120,11 +120,11 @@ pub use blob::{BlobError, Node, NodeKind, WriteError, MAX_DEPTH};
 
 /// The blob's layout, for the writers in `kdray-tools` and the tests: the
 /// wire format's sections and checksum, the node's fields, and the
-/// treelet order the validation checks. Not a user's API: it follows the
+/// line order the validation checks. Not a user's API: it follows the
 /// format, which changes with its version.
 #[doc(hidden)]
 pub mod format {
-    pub use crate::blob::{node, walk_treelets, wire, FIRST_PAIR, LINE_NODES};
+    pub use crate::blob::{node, walk_line_groups, wire, FIRST_PAIR, LINE_NODES};
 }
 pub use blob::wire::Aligned;
 pub use cpu::{isa, set_isa, Isa, IsaUnsupported};

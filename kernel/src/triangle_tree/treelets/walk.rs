@@ -217,7 +217,7 @@ mod x86 {
         /// As [`Walk::step`].
         #[inline(always)]
         unsafe fn treelet(&mut self, t: &Treelet) -> bool {
-            // SAFETY (the block): the caller has AVX2; every load reads 8
+            // SAFETY: the caller has AVX2; every load reads 8
             // lanes of an array of 8 (the splits and the axes word as one
             // 32-byte load from the treelet's start), every store writes
             // an 8-lane slice, bounds-checked.

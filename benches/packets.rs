@@ -14,7 +14,7 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use glam::Vec3;
-use kdray::kernel::{Hit, PacketWidth, Ray, TriangleTree};
+use kdray::kernel::{Batch, Hit, PacketWidth, Ray, TriangleTree};
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use kdray::tools::mesh;
@@ -53,7 +53,7 @@ fn camera_rays(lo: Vec3, hi: Vec3) -> Vec<Ray> {
 /// From each camera hit towards a point light above and to the side.
 fn shadow_rays(tree: &TriangleTree, camera: &[Ray], light: Vec3) -> Vec<Ray> {
     let mut hits = vec![Hit::MISS; camera.len()];
-    tree.closest_hits(camera, &mut hits);
+    tree.closest_hits(camera, &mut hits, Batch::default());
     camera
         .iter()
         .zip(&hits)
@@ -99,7 +99,16 @@ fn bench(c: &mut Criterion) {
         let mut hits = vec![Hit::MISS; rays.len()];
         for (width, wname) in WIDTHS {
             g.bench_function(BenchmarkId::new(name, wname), |b| {
-                b.iter(|| tree.closest_hits_with(width, black_box(rays), &mut hits))
+                b.iter(|| {
+                    tree.closest_hits(
+                        black_box(rays),
+                        &mut hits,
+                        Batch {
+                            width,
+                            ..Batch::default()
+                        },
+                    )
+                })
             });
         }
     }
@@ -107,7 +116,16 @@ fn bench(c: &mut Criterion) {
     let mut occluded = vec![false; shadow.len()];
     for (width, wname) in WIDTHS {
         g.bench_function(BenchmarkId::new("shadow", wname), |b| {
-            b.iter(|| tree.any_hits_with(width, black_box(&shadow), &mut occluded))
+            b.iter(|| {
+                tree.any_hits(
+                    black_box(&shadow),
+                    &mut occluded,
+                    Batch {
+                        width,
+                        ..Batch::default()
+                    },
+                )
+            })
         });
     }
     g.finish();

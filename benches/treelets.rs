@@ -12,7 +12,7 @@
 mod common;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use kdray::kernel::{Hit, PacketWidth, Ray, Treelet};
+use kdray::kernel::{Batch, Hit, PacketWidth, Ray, TraceBatch, Treelet};
 use kdray::tools::blob::write_triangle_tree;
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use kdray::tools::camera::{random_rays, Camera};
@@ -33,16 +33,41 @@ fn treelets(c: &mut Criterion) {
         g.sample_size(10);
         for (kind, rays) in &sets {
             let (mut a, mut b) = (vec![Hit::MISS; rays.len()], vec![Hit::MISS; rays.len()]);
-            tree.closest_hits_with(PacketWidth::One, rays, &mut a);
-            lined.closest_hits_with(PacketWidth::One, rays, &mut b);
+            tree.closest_hits(
+                rays,
+                &mut a,
+                Batch {
+                    width: PacketWidth::One,
+                    ..Batch::default()
+                },
+            );
+            lined.closest_hits(
+                rays,
+                &mut b,
+                Batch {
+                    width: PacketWidth::One,
+                    ..Batch::default()
+                },
+            );
             assert!(
                 a.iter().zip(&b).all(|(x, y)| x.bits() == y.bits()),
                 "{name} {kind}"
             );
             g.throughput(Throughput::Elements(rays.len() as u64));
-            for (label, t) in [("one-plane", tree), ("treelets", lined)] {
+            let layouts: [(&str, &dyn TraceBatch); 2] =
+                [("one-plane", &tree), ("treelets", &lined)];
+            for (label, t) in layouts {
                 g.bench_with_input(BenchmarkId::new(label, kind), rays, |bench, rays| {
-                    bench.iter(|| t.closest_hits_with(PacketWidth::One, rays, &mut a))
+                    bench.iter(|| {
+                        t.closest_hits(
+                            rays,
+                            &mut a,
+                            Batch {
+                                width: PacketWidth::One,
+                                ..Batch::default()
+                            },
+                        )
+                    })
                 });
             }
         }

@@ -280,7 +280,7 @@ fn trees_are_identical_for_any_thread_count() {
     // The built-in scene (33k triangles) always, the bunny when present:
     // both are large enough for parallel subtrees, partitions and layout.
     let scenes = [
-        Some(kdray::tools::scene::teapot_in_stadium().triangles),
+        Some(kdray::tools::demo_scene::teapot_in_stadium().triangles),
         mesh("stanford-bunny.obj"),
     ];
     for tris in scenes.iter().flatten() {

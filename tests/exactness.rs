@@ -288,7 +288,7 @@ fn any_hit_walks_from_the_far_end() {
                 (wall - 1..=wall).contains(&(last / 2)),
                 "tmax {tmax}, dir {dir:?}: triangle {last}"
             );
-            let (hit, counts) = tree.any_hit_counted(&ray);
+            let (hit, counts) = tree.counting().any_hit(&ray);
             assert!(hit && any_hit_brute(&tris, &ray));
             assert!(counts.triangles <= 4, "{counts:?}");
         }

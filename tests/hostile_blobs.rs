@@ -2,7 +2,7 @@
 //! refused with the right error, never a panic; whatever is accepted can
 //! be traced without a panic or an endless loop.
 
-use kdray::kernel::wire::{blob_checksum, CHECKSUM_OFFSET};
+use kdray::kernel::format::wire::{blob_checksum, CHECKSUM_OFFSET};
 use kdray::kernel::{Axis, BlobError, Bounds, Node, Ray, Triangle, TriangleTree, MAX_DEPTH};
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{BuildParams, BuiltTree};

@@ -1,10 +1,11 @@
 //! Blob version 2's node order: every builder's tree is in the one
-//! treelet order the validator replays (cache-line treelets, see
-//! `kdray_kernel::walk_treelets`), and that order is the only one it
+//! line order the validator replays (cache-line groups, see
+//! `kdray_kernel::format::walk_line_groups`), and that order is the only one it
 //! accepts: two pairs swapped (their parents' child indices fixed, so the
 //! result is still a tree) are refused.
 
-use kdray::kernel::{BlobError, Node, NodeKind, Triangle, TriangleTree, LINE_NODES};
+use kdray::kernel::format::LINE_NODES;
+use kdray::kernel::{BlobError, Node, NodeKind, Triangle, TriangleTree};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use proptest::prelude::*;
 
@@ -39,7 +40,7 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
 
     #[test]
-    fn builders_write_the_one_treelet_order(
+    fn builders_write_the_one_line_order(
         tris in proptest::collection::vec(triangle(), 1..80),
         pick in (0usize..1000, 0usize..1000),
     ) {

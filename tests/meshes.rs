@@ -12,7 +12,7 @@ use common::{
 use kdray::kernel::{Bounds, Ray, Triangle};
 use kdray::tools::builders::BuilderKind;
 use kdray::tools::camera::{random_rays, Camera};
-use kdray::tools::{mesh, scene};
+use kdray::tools::{demo_scene, mesh};
 
 fn bounds(tris: &[Triangle]) -> Bounds {
     tris.iter().fold(Bounds::EMPTY, |b, t| b.union(&t.bounds()))
@@ -103,7 +103,7 @@ fn planar_scene() -> (Vec<Triangle>, Vec<Ray>) {
 
 #[test]
 fn generated_scenes_match_brute_force() {
-    let s = scene::teapot_in_stadium();
+    let s = demo_scene::teapot_in_stadium();
     check_scene("teapot-in-stadium", &s.triangles, &s.focus);
     let (tris, rays) = planar_scene();
     assert_matches_brute(&tris, &rays);
@@ -163,7 +163,7 @@ fn triangle_counts_follow_the_fan_rule() {
 
 #[test]
 fn blob_round_trips_through_a_file_and_builds_are_deterministic() {
-    let s = scene::teapot_in_stadium();
+    let s = demo_scene::teapot_in_stadium();
     let a = blob(&s.triangles, BuilderKind::default());
     let b = blob(&s.triangles, BuilderKind::default());
     assert_eq!(a.as_bytes(), b.as_bytes(), "same mesh, different bytes");

@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 use kdray::kernel::{
-    Hit, Packet, Packet16, Packet4, Packet8, PacketWidth, Ray, Triangle, TriangleTree, MISS,
+    Batch, Hit, Packet, Packet16, Packet4, Packet8, PacketWidth, Ray, Triangle, TriangleTree, MISS,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
@@ -105,10 +105,15 @@ fn check_rays(tree: &TriangleTree, rays: &[Ray], rng: &mut Rng) -> usize {
         }
         let p4 = Packet4::from_rays(&chunk[..chunk.len().min(4)]);
         for (p8, p4) in [(p8, p4), (share_signs(&p8), share_signs(&p4))] {
-            let h8 = tree.closest_hit8(&p8);
+            let h8 = tree.closest_hit_packet(&p8);
             hits += h8.iter().filter(|h| h.is_hit()).count();
-            assert_lanes(tree, &p8, h8, tree.any_hit8(&p8));
-            assert_lanes(tree, &p4, tree.closest_hit4(&p4), tree.any_hit4(&p4));
+            assert_lanes(tree, &p8, h8, tree.any_hit_packet(&p8));
+            assert_lanes(
+                tree,
+                &p4,
+                tree.closest_hit_packet(&p4),
+                tree.any_hit_packet(&p4),
+            );
         }
     }
     for chunk in rays.chunks(16) {
@@ -119,7 +124,12 @@ fn check_rays(tree: &TriangleTree, rays: &[Ray], rng: &mut Rng) -> usize {
             }
         }
         for p in [p16, share_signs(&p16)] {
-            assert_lanes(tree, &p, tree.closest_hit16(&p), tree.any_hit16(&p));
+            assert_lanes(
+                tree,
+                &p,
+                tree.closest_hit_packet(&p),
+                tree.any_hit_packet(&p),
+            );
         }
     }
     hits
@@ -181,13 +191,18 @@ fn camera_tiles_and_shadow_rays() {
                 Vec3::new(x as f32 / w as f32 - 0.5, y as f32 / h as f32 - 0.5, -1.0) * 0.5
             });
             let p = Packet8::from_vec3([eye; 8], dirs, 0.0, f32::INFINITY);
-            let h8 = tree.closest_hit8(&p);
-            assert_lanes(&tree, &p, h8, tree.any_hit8(&p));
+            let h8 = tree.closest_hit_packet(&p);
+            assert_lanes(&tree, &p, h8, tree.any_hit_packet(&p));
             // Shadow rays from the hit points towards the light.
             let origins = std::array::from_fn(|l| Ray::new(eye, dirs[l]).at(h8[l].t.min(1e3)));
             let to_light = origins.map(|o| light - o);
             let s = Packet8::from_vec3(origins, to_light, 1e-3, 1.0);
-            assert_lanes(&tree, &s, tree.closest_hit8(&s), tree.any_hit8(&s));
+            assert_lanes(
+                &tree,
+                &s,
+                tree.closest_hit_packet(&s),
+                tree.any_hit_packet(&s),
+            );
             hits += h8.iter().filter(|h| h.is_hit()).count();
         }
         // 16 lanes: two 4x2 tiles side by side.
@@ -197,7 +212,12 @@ fn camera_tiles_and_shadow_rays() {
                 Vec3::new(x as f32 / w as f32 - 0.5, y as f32 / h as f32 - 0.5, -1.0) * 0.5
             });
             let p = Packet16::from_vec3([eye; 16], dirs, 0.0, f32::INFINITY);
-            assert_lanes(&tree, &p, tree.closest_hit16(&p), tree.any_hit16(&p));
+            assert_lanes(
+                &tree,
+                &p,
+                tree.closest_hit_packet(&p),
+                tree.any_hit_packet(&p),
+            );
         }
     }
     assert!(hits > 1000, "only {hits} camera hits");
@@ -241,14 +261,28 @@ fn slice_entry_points_match_single_rays() {
             PacketWidth::Sixteen,
         ] {
             let mut hits = vec![Hit::OCCLUDED; rays.len()];
-            tree.closest_hits_with(width, &rays, &mut hits);
+            tree.closest_hits(
+                &rays,
+                &mut hits,
+                Batch {
+                    width,
+                    ..Batch::default()
+                },
+            );
             assert_eq!(
                 hits.iter().map(Hit::bits).collect::<Vec<_>>(),
                 want,
                 "{width:?}"
             );
             let mut occ = vec![false; rays.len()];
-            tree.any_hits_with(width, &rays, &mut occ);
+            tree.any_hits(
+                &rays,
+                &mut occ,
+                Batch {
+                    width,
+                    ..Batch::default()
+                },
+            );
             assert_eq!(occ, want_any, "{width:?}");
         }
     }
@@ -313,7 +347,14 @@ fn batches_sorted_in_morton_order_answer_in_their_own_order() {
         for room in [2 * shadow.len(), 2 * shadow.len() - 1, 0] {
             let mut scratch = vec![0u64; room];
             let mut got = vec![false; shadow.len()];
-            tree.any_hits_by_origin(width, &shadow, &mut got, &mut scratch);
+            tree.any_hits(
+                &shadow,
+                &mut got,
+                Batch {
+                    width,
+                    scratch: &mut scratch,
+                },
+            );
             assert!(got == want, "{width:?} scratch {room}");
         }
     }

@@ -3,7 +3,7 @@
 //! clustered, duplicate-heavy, all equal, on a line, on a plane), with
 //! queries near and far outside; large k; and hostile point blobs.
 
-use kdray::kernel::wire::{blob_checksum, CHECKSUM_OFFSET, HEADER_LEN};
+use kdray::kernel::format::wire::{blob_checksum, CHECKSUM_OFFSET, HEADER_LEN};
 use kdray::kernel::{
     distance2, knn_brute, max_point_coord, max_point_coord_log2, nearest_brute, within_brute,
     BlobError, Neighbour, PointTree, PointTreeN, Scalar, WriteError,

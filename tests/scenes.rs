@@ -206,7 +206,7 @@ fn malformed_scene_blobs_are_refused_with_what_is_wrong() {
     }
     // Damage behind a valid checksum: each check names its problem.
     let reseal = |mut b: Vec<u8>| {
-        let sum = kdray::kernel::wire::blob_checksum(&b);
+        let sum = kdray::kernel::format::wire::blob_checksum(&b);
         b[36..40].copy_from_slice(&sum.to_le_bytes());
         kdray::tools::blob::Blob::from_bytes(&b)
     };

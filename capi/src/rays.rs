@@ -6,7 +6,7 @@ use crate::handle::{self, KdrayTriangleTree};
 use crate::{check_count, check_ptr, status, KdrayStatus};
 use bytemuck::{Pod, Zeroable};
 use core::ffi::c_char;
-use kdray_kernel::{Hit, Packet, PacketWidth, Ray, Treelet, TriangleTree};
+use kdray_kernel::{Batch, Hit, Packet, PacketWidth, Ray, Treelet, TriangleTree};
 
 /// The `prim_id` of a miss.
 pub const KDRAY_MISS: u32 = 0xFFFF_FFFF;
@@ -328,7 +328,11 @@ pub unsafe extern "C" fn kdray_closest_hit4(
     hits: *mut KdrayHit4,
 ) -> KdrayStatus {
     // SAFETY: this function's contract.
-    unsafe { closest_packet(valid.cast(), tree, rays, hits, |t, p| t.closest_hit4(p)) }
+    unsafe {
+        closest_packet(valid.cast(), tree, rays, hits, |t, p| {
+            t.closest_hit_packet(p)
+        })
+    }
 }
 
 /// `kdray_closest_hit4` for a packet of 8 rays (`valid` has 8 entries).
@@ -346,7 +350,11 @@ pub unsafe extern "C" fn kdray_closest_hit8(
     hits: *mut KdrayHit8,
 ) -> KdrayStatus {
     // SAFETY: this function's contract.
-    unsafe { closest_packet(valid.cast(), tree, rays, hits, |t, p| t.closest_hit8(p)) }
+    unsafe {
+        closest_packet(valid.cast(), tree, rays, hits, |t, p| {
+            t.closest_hit_packet(p)
+        })
+    }
 }
 
 /// `kdray_closest_hit4` for a packet of 16 rays (`valid` has 16 entries).
@@ -364,7 +372,11 @@ pub unsafe extern "C" fn kdray_closest_hit16(
     hits: *mut KdrayHit16,
 ) -> KdrayStatus {
     // SAFETY: this function's contract.
-    unsafe { closest_packet(valid.cast(), tree, rays, hits, |t, p| t.closest_hit16(p)) }
+    unsafe {
+        closest_packet(valid.cast(), tree, rays, hits, |t, p| {
+            t.closest_hit_packet(p)
+        })
+    }
 }
 
 /// Occlusion of a packet of 4 rays: `occluded[l]` is 1 if lane `l` hits
@@ -385,7 +397,7 @@ pub unsafe extern "C" fn kdray_any_hit4(
     // SAFETY: this function's contract.
     unsafe {
         any_packet(valid.cast(), tree, rays, occluded.cast(), |t, p| {
-            t.any_hit4(p)
+            t.any_hit_packet(p)
         })
     }
 }
@@ -407,7 +419,7 @@ pub unsafe extern "C" fn kdray_any_hit8(
     // SAFETY: this function's contract.
     unsafe {
         any_packet(valid.cast(), tree, rays, occluded.cast(), |t, p| {
-            t.any_hit8(p)
+            t.any_hit_packet(p)
         })
     }
 }
@@ -429,7 +441,7 @@ pub unsafe extern "C" fn kdray_any_hit16(
     // SAFETY: this function's contract.
     unsafe {
         any_packet(valid.cast(), tree, rays, occluded.cast(), |t, p| {
-            t.any_hit16(p)
+            t.any_hit_packet(p)
         })
     }
 }
@@ -464,7 +476,7 @@ pub unsafe extern "C" fn kdray_closest_hits(
         let rays = unsafe { core::slice::from_raw_parts(rays.cast::<Ray>(), count) };
         // SAFETY: as for `rays`, writable and not overlapping by contract.
         let hits = unsafe { core::slice::from_raw_parts_mut(hits.cast::<Hit>(), count) };
-        t.closest_hits(rays, hits);
+        t.closest_hits(rays, hits, Batch::default());
         Ok(())
     })())
 }
@@ -499,7 +511,7 @@ pub unsafe extern "C" fn kdray_any_hits(
         let occluded = unsafe { core::slice::from_raw_parts_mut(occluded, count) };
         let mut flags = [false; CHUNK];
         for (rs, os) in rays.chunks(CHUNK).zip(occluded.chunks_mut(CHUNK)) {
-            t.any_hits(rs, &mut flags);
+            t.any_hits(rs, &mut flags, Batch::default());
             for (o, &f) in os.iter_mut().zip(&flags) {
                 *o = i32::from(f);
             }
@@ -545,7 +557,11 @@ pub unsafe extern "C" fn kdray_any_hits_by_origin(
         let occluded = unsafe { core::slice::from_raw_parts_mut(occluded, count) };
         // SAFETY: as for `occluded`, `scratch_count` words.
         let scratch = unsafe { core::slice::from_raw_parts_mut(scratch, scratch_count) };
-        t.any_hits_by_origin_each(PacketWidth::Eight, rays, scratch, |i, o| {
+        let batch = Batch {
+            width: PacketWidth::Eight,
+            scratch,
+        };
+        t.any_hits_each(rays, batch, |i, o| {
             if let Some(x) = occluded.get_mut(i) {
                 *x = i32::from(o);
             }
@@ -625,7 +641,7 @@ pub unsafe extern "C" fn kdray_triangles_treelets(
         // SAFETY: `tree` was loaded (non-null, aligned, open) and is
         // writable by contract; the view borrows the blob and `treelets`,
         // both alive and unchanged while it is used.
-        unsafe { handle::store(tree, lined) };
+        unsafe { handle::store(tree, lined.lined_view()) };
         Ok(())
     })())
 }

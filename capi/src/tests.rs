@@ -119,6 +119,7 @@ fn a_corrupt_blob_is_refused_with_the_kernels_sentence() {
     let mut hit = KdrayHit::zeroed();
     // SAFETY: live objects.
     assert_eq!(
+        // SAFETY: every pointer is a live local or a handle this test opened.
         unsafe { kdray_closest_hit(&h, &rays()[0], &mut hit) },
         KdrayStatus::NotOpen
     );
@@ -491,6 +492,7 @@ fn point_trees_of_any_shape_answer_as_the_kernel() {
     let (mut dim, mut bytes) = (0, 0);
     // SAFETY: live objects.
     assert_eq!(
+        // SAFETY: every pointer is a live local or a handle this test opened.
         unsafe { kdray_points_shape(&h, &mut dim, &mut bytes) },
         KdrayStatus::Ok
     );
@@ -657,6 +659,7 @@ fn a_scene_answers_as_the_kernel_and_a_tree_handle_is_not_a_scene() {
     for mask in [u32::MAX, 0] {
         // SAFETY: live handle and records.
         assert_eq!(
+            // SAFETY: every pointer is a live local or a handle this test opened.
             unsafe { kdray_scene_closest_hit(&h, &ray, mask, &mut hit) },
             KdrayStatus::Ok
         );
@@ -664,6 +667,7 @@ fn a_scene_answers_as_the_kernel_and_a_tree_handle_is_not_a_scene() {
         assert_eq!(bytemuck::cast::<_, [u32; 5]>(hit), want.bits());
         // SAFETY: as above.
         assert_eq!(
+            // SAFETY: every pointer is a live local or a handle this test opened.
             unsafe { kdray_scene_any_hit(&h, &ray, mask, &mut occluded) },
             KdrayStatus::Ok
         );
@@ -692,6 +696,7 @@ fn a_scene_answers_as_the_kernel_and_a_tree_handle_is_not_a_scene() {
     let mut th = KdrayHit::zeroed();
     // SAFETY: a readable handle-sized struct.
     assert_eq!(
+        // SAFETY: every pointer is a live local or a handle this test opened.
         unsafe { kdray_closest_hit(tree, &ray, &mut th) },
         KdrayStatus::NotOpen
     );

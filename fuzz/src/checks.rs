@@ -18,10 +18,13 @@
 //! - [`deforming`]: the same scenes moved over a few frames, a kept
 //!   deforming mesh's tree against brute force each frame.
 
-use kdray::kernel::wire::{blob_checksum, Header, ENDIAN_CHECK, KIND_TRIANGLES, MAGIC, VERSION};
+use kdray::kernel::format::wire::{
+    blob_checksum, Header, ENDIAN_CHECK, KIND_TRIANGLES, MAGIC, VERSION,
+};
 use kdray::kernel::{
-    any_hit_brute, closest_hit_brute, first_hits_brute, Hit, MortonGrid, Node, Packet, Packet4,
-    Packet8, PacketWidth, Ray, RayKey, SceneHit, ShallowTree, Treelet, Triangle, TriangleTree,
+    any_hit_brute, closest_hit_brute, first_hits_brute, Batch, Hit, MortonGrid, Node, Packet,
+    Packet4, Packet8, PacketWidth, Ray, RayKey, SceneHit, ShallowTree, Treelet, Triangle,
+    TriangleTree,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
@@ -202,8 +205,8 @@ pub fn blob(data: &[u8]) {
         let _ = (tree.closest_hit(&ray), tree.any_hit(&ray));
         let p: Packet8 = rays.packet();
         let _ = (
-            tree.closest_hit8(&p),
-            tree.any_hit4(&Packet4::from_rays(&[ray])),
+            tree.closest_hit_packet(&p),
+            tree.any_hit_packet(&Packet4::from_rays(&[ray])),
         );
     }
 }
@@ -256,22 +259,22 @@ pub fn packet_vs_single(data: &[u8]) {
                 &tree,
                 &mut r,
                 shared,
-                TriangleTree::closest_hit8,
-                TriangleTree::any_hit8,
+                TriangleTree::closest_hit_packet::<8>,
+                TriangleTree::any_hit_packet::<8>,
             ),
             1 => packet_lanes(
                 &tree,
                 &mut r,
                 shared,
-                TriangleTree::closest_hit4,
-                TriangleTree::any_hit4,
+                TriangleTree::closest_hit_packet::<4>,
+                TriangleTree::any_hit_packet::<4>,
             ),
             _ => packet_lanes(
                 &tree,
                 &mut r,
                 shared,
-                TriangleTree::closest_hit16,
-                TriangleTree::any_hit16,
+                TriangleTree::closest_hit_packet::<16>,
+                TriangleTree::any_hit_packet::<16>,
             ),
         }
     }
@@ -296,14 +299,35 @@ fn packet_lanes<'t, const N: usize>(
     // `cfg(fuzzing)`; trees above 1 MiB otherwise).
     let rays: Vec<Ray> = (0..N).map(|l| p.ray(l)).collect();
     let mut hits = vec![Hit::MISS; N];
-    tree.closest_hits_with(PacketWidth::One, &rays, &mut hits);
+    tree.closest_hits(
+        &rays,
+        &mut hits,
+        Batch {
+            width: PacketWidth::One,
+            ..Batch::default()
+        },
+    );
     let mut occ = vec![false; N];
-    tree.any_hits_with(PacketWidth::One, &rays, &mut occ);
+    tree.any_hits(
+        &rays,
+        &mut occ,
+        Batch {
+            width: PacketWidth::One,
+            ..Batch::default()
+        },
+    );
     // And in the Morton order of their origins (hostile origins: NaN,
     // infinite, far apart), answers in their slots.
     let mut by_origin = vec![false; N];
     let mut scratch = vec![0u64; 2 * N];
-    tree.any_hits_by_origin(PacketWidth::Eight, &rays, &mut by_origin, &mut scratch);
+    tree.any_hits(
+        &rays,
+        &mut by_origin,
+        Batch {
+            width: PacketWidth::Eight,
+            scratch: &mut scratch,
+        },
+    );
     for (((ray, h), o), b) in rays.iter().zip(&hits).zip(&occ).zip(&by_origin) {
         assert_eq!(h.bits(), tree.closest_hit(ray).bits(), "slice: {ray:?}");
         assert_eq!(*o, tree.any_hit(ray), "slice any: {ray:?}");
@@ -395,7 +419,7 @@ pub fn tree_vs_brute(data: &[u8]) {
             .treelets_into(&mut lines)
             .expect("room for every treelet");
         let mut got = vec![Hit::MISS; rays.len()];
-        lined.closest_hits_scattered(&rays, &mut got);
+        lined.closest_hits(&rays, &mut got, Batch::default());
         for ((ray, want), got) in rays.iter().zip(&wants).zip(&got) {
             assert_eq!(
                 got.bits(),

@@ -7,9 +7,12 @@
 //!   checksum, and the tree's structure) and borrows it; no byte is copied.
 //! - [`TriangleTree::closest_hit`] and [`TriangleTree::any_hit`] trace one
 //!   ray with the lecture's non-recursive loop on a fixed stack of
-//!   [`MAX_DEPTH`] entries; [`TriangleTree::closest_hit8`] and friends
-//!   ([`Packet8`] and friends) trace 4, 8 or 16 rays at once with the same
-//!   answers.
+//!   [`MAX_DEPTH`] entries; [`TriangleTree::closest_hit_packet`] traces a
+//!   [`Packet`] of 4, 8 or 16 rays at once, and
+//!   [`TriangleTree::closest_hits`] a batch of any size, the walk chosen per
+//!   block ([`Batch`]), with the same answers. [`TriangleTree::counting`]
+//!   counts a query's work; [`TreeletTree`] is the tree regrouped for
+//!   scattered rays.
 //! - [`Scene::from_bytes`] (a scene blob) or [`Scene::from_parts`] (mesh
 //!   trees the engine holds, an [`Instance`] table and a top-level tree)
 //!   gives a scene of instanced meshes; [`Scene::closest_hit`] and
@@ -117,10 +120,17 @@ mod test_rng;
 mod triangle;
 mod triangle_tree;
 
-pub use blob::{
-    node, walk_treelets, wire, BlobError, Node, NodeKind, WriteError, FIRST_PAIR, LINE_NODES,
-    MAX_DEPTH,
-};
+pub use blob::{BlobError, Node, NodeKind, WriteError, MAX_DEPTH};
+
+/// The blob's layout, for the writers in `kdray-tools` and the tests: the
+/// wire format's sections and checksum, the node's fields, and the
+/// line order the validation checks. Not a user's API: it follows the
+/// format, which changes with its version.
+#[doc(hidden)]
+pub mod format {
+    pub use crate::blob::{node, walk_line_groups, wire, FIRST_PAIR, LINE_NODES};
+}
+pub use blob::wire::Aligned;
 pub use cpu::{isa, set_isa, Isa, IsaUnsupported};
 pub use geometry::{
     item_index, ray_is_valid, sort_items, Axis, Bounds, Hit, MortonGrid, Ray, RayKey, MISS,
@@ -144,6 +154,6 @@ pub use triangle::{
 };
 pub use triangle_tree::packet::{Packet, Packet16, Packet4, Packet8, PacketWidth};
 pub use triangle_tree::{
-    ShallowTree, TraversalCounts, Treelet, TreeletBufferTooSmall, TriangleTree,
+    Batch, Counting, PacketLanes, ShallowTree, TraceBatch, TraversalCounts, Treelet,
+    TreeletBufferTooSmall, TreeletTree, TriangleTree,
 };
-pub use wire::Aligned;

@@ -2,7 +2,7 @@
 
 use crate::builders::BuiltTree;
 use crate::points::BuiltPoints;
-use kdray_kernel::wire::Line;
+use kdray_kernel::format::wire::Line;
 use kdray_kernel::{
     BlobError, PointTreeN, Scalar, Scene, SceneError, Triangle, TriangleTree, WriteError,
 };

@@ -48,7 +48,7 @@
 use crate::blob::{write_triangle_tree, Blob};
 use crate::builders::{self, BuildError, BuildParams, BuilderKind, BuiltTree, CostModel};
 use crate::rng::Rng;
-use kdray_kernel::wire::{
+use kdray_kernel::format::wire::{
     blob_checksum, Header, CHECKSUM_OFFSET, ENDIAN_CHECK, HEADER_LEN, MAGIC, VERSION,
 };
 use kdray_kernel::{

@@ -61,7 +61,7 @@ pub fn tree_stats(tree: &TriangleTree<'_>, cost: CostModel) -> TreeStats {
         refs_per_triangle: 0.0,
         mean_leaf_size: 0.0,
         sah_cost: 0.0,
-        bytes: kdray_kernel::wire::HEADER_LEN
+        bytes: kdray_kernel::format::wire::HEADER_LEN
             + tree.nodes().len() * 8
             + tree.prim_indices().len() * 4
             + tree.triangles().len() * 36,
@@ -69,7 +69,7 @@ pub fn tree_stats(tree: &TriangleTree<'_>, cost: CostModel) -> TreeStats {
     };
     let (mut depth_sum, mut refs, mut lines_sum) = (0u64, 0u64, 0u64);
     // The line of node `i`: the 64-byte header is line 0.
-    let line = |i: u32| (kdray_kernel::wire::HEADER_LEN as u64 + 8 * u64::from(i)) / 64;
+    let line = |i: u32| (kdray_kernel::format::wire::HEADER_LEN as u64 + 8 * u64::from(i)) / 64;
     let nodes = tree.nodes();
     // (node, cell, depth, lines read so far, the last of them): children
     // come after their parent, so the lines on a path only increase.

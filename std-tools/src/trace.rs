@@ -21,7 +21,7 @@
 
 use crate::morton;
 pub use kdray_kernel::PacketWidth;
-use kdray_kernel::{item_index, Hit, Ray, RayKey, TriangleTree};
+use kdray_kernel::{item_index, Batch, Hit, Ray, RayKey, TraceBatch, TriangleTree};
 use rayon::prelude::*;
 
 /// Which query to run per ray.
@@ -110,14 +110,14 @@ impl Order {
 /// be as long), in parallel on the current rayon pool, `width` rays at a
 /// time, in the order `order` picks.
 pub fn trace_into(
-    tree: &TriangleTree<'_>,
+    tree: &impl TraceBatch,
     rays: &[Ray],
     hits: &mut [Hit],
     query: Query,
     width: PacketWidth,
     order: Order,
 ) {
-    let sorted = order.sorts(tree, rays, query);
+    let sorted = order.sorts(&tree.tree(), rays, query);
     if let Some(order) = sorted
         .then(|| morton::ray_order(rays, Order::key(query)))
         .flatten()
@@ -166,7 +166,7 @@ pub fn first_hits_into(tree: &TriangleTree<'_>, rays: &[Ray], hits: &mut [Hit], 
 
 /// [`trace_into`] in the batch's order.
 fn trace_chunks(
-    tree: &TriangleTree<'_>,
+    tree: &impl TraceBatch,
     rays: &[Ray],
     hits: &mut [Hit],
     query: Query,
@@ -179,18 +179,32 @@ fn trace_chunks(
 
 /// Traces on the calling thread, `width` rays at a time.
 pub fn trace_serial(
-    tree: &TriangleTree<'_>,
+    tree: &impl TraceBatch,
     rays: &[Ray],
     hits: &mut [Hit],
     query: Query,
     width: PacketWidth,
 ) {
     match query {
-        Query::Closest => tree.closest_hits_with(width, rays, hits),
+        Query::Closest => tree.closest_hits(
+            rays,
+            hits,
+            Batch {
+                width,
+                ..Batch::default()
+            },
+        ),
         Query::Any => {
             let mut occluded = [false; CHUNK];
             for (r, h) in rays.chunks(CHUNK).zip(hits.chunks_mut(CHUNK)) {
-                tree.any_hits_with(width, r, &mut occluded);
+                tree.any_hits(
+                    r,
+                    &mut occluded,
+                    Batch {
+                        width,
+                        ..Batch::default()
+                    },
+                );
                 for (h, &o) in h.iter_mut().zip(&occluded) {
                     *h = Hit::occlusion(o);
                 }

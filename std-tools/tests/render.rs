@@ -7,10 +7,10 @@ use kdray_kernel::{PacketWidth, Triangle};
 use kdray_tools::blob::write_triangle_tree;
 use kdray_tools::builders::{build, BuildParams, BuilderKind};
 use kdray_tools::camera::Camera;
+use kdray_tools::demo_scene::teapot_in_stadium;
 use kdray_tools::render::{
     render, render_heatmap, BruteTracer, Image, RenderParams, TreeTracer, BACKGROUND, LEGEND_HEIGHT,
 };
-use kdray_tools::scene::teapot_in_stadium;
 
 /// A floor, and a tetrahedron floating above it that shadows it.
 fn floor_and_tetrahedron() -> Vec<Triangle> {

@@ -3,7 +3,7 @@
 #![allow(dead_code)]
 
 use kdray::kernel::{
-    any_hit_brute, closest_hit_brute, first_hits_brute, Hit, Ray, Treelet, Triangle,
+    any_hit_brute, closest_hit_brute, first_hits_brute, Batch, Hit, Ray, Treelet, Triangle,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
@@ -81,17 +81,18 @@ pub(crate) fn assert_matches_brute(tris: &[Triangle], rays: &[Ray]) {
     for kind in BuilderKind::ALL {
         let blob = blob(tris, kind);
         let tree = blob.tree().expect("built tree validates");
-        // The rays walked in turns, through the treelets (7 planes a step)
-        // and with the one-plane walk, whatever their order.
+        // The rays as a batch, through the treelets (7 planes a step) and
+        // with the one-plane walk: scattered blocks walk in turns.
         let count = tree.treelet_count();
         let mut lines = vec![Treelet::default(); count];
         let with_lines = tree
             .treelets_into(&mut lines)
             .expect("room for every treelet");
-        for t in [tree, with_lines] {
-            let mut scattered = vec![Hit::MISS; rays.len()];
-            t.closest_hits_scattered(rays, &mut scattered);
-            for (i, ((r, (closest, ..)), got)) in rays.iter().zip(&want).zip(&scattered).enumerate()
+        let mut batches = [vec![Hit::MISS; rays.len()], vec![Hit::MISS; rays.len()]];
+        tree.closest_hits(rays, &mut batches[0], Batch::default());
+        with_lines.closest_hits(rays, &mut batches[1], Batch::default());
+        for scattered in &batches {
+            for (i, ((r, (closest, ..)), got)) in rays.iter().zip(&want).zip(scattered).enumerate()
             {
                 assert_eq!(
                     got.bits(),

@@ -1,14 +1,14 @@
 //! The node-layout rules, and their O(n) checks.
 //!
-//! **Triangle trees (blob version 2): cache-line treelets.** The root is
+//! **Triangle trees (blob version 2): cache-line groups.** The root is
 //! node 0, node 1 is padding (the empty leaf), and the child pairs follow
 //! from node 2, so every pair fills one 16-byte quarter of a 64-byte line
 //! (a blob in 64-byte aligned memory; its 64-byte header is one line, so
 //! node `i` lies in line `i / 8`). Pairs are placed in the order of
-//! [`walk_treelets`]: a treelet starts at a node, takes the next free pair
+//! [`walk_line_groups`]: a group starts at a node, takes the next free pair
 //! for it and, breadth-first below it, for its descendants until the line
 //! of its first pair is full; the nodes that did not fit start later
-//! treelets, depth-first (last left, first taken). A walk from the root
+//! groups, depth-first (last left, first taken). A walk from the root
 //! steps through two to three levels in one line before it needs another.
 //!
 //! The check replays that placement with a counter: the `k`-th pair
@@ -26,7 +26,7 @@ use super::error::BlobError;
 use super::node::{Node, NodeKind};
 use super::MAX_DEPTH;
 
-/// Walks a triangle tree's treelets on a fixed stack ([`walk_treelets`]),
+/// Walks a triangle tree's line groups on a fixed stack ([`walk_line_groups`]),
 /// checking the padding node, the layout rule of the module docs, every
 /// split and every leaf. Returns the max depth.
 pub(crate) fn validate_nodes(
@@ -78,7 +78,7 @@ pub(crate) fn validate_nodes(
             }
         }
     };
-    walk_treelets(nodes.len(), &mut node, |i, child, slot| {
+    walk_line_groups(nodes.len(), &mut node, |i, child, slot| {
         if child == slot {
             Ok(())
         } else {
@@ -95,16 +95,16 @@ pub(crate) fn validate_nodes(
 pub const LINE_NODES: usize = 8;
 /// The first child pair's node index (node 1 is padding).
 pub const FIRST_PAIR: usize = 2;
-/// Nodes a treelet may leave in its queue: its root, plus two children
+/// Nodes a group may leave in its queue: its root, plus two children
 /// for each of the at most `LINE_NODES / 2` pairs it places.
 const QUEUE: usize = 1 + LINE_NODES;
-/// Pending treelet roots: each treelet leaves at most `LINE_NODES / 2 + 1`
-/// of its queue for later, the pending ones all belong to treelets on the
+/// Pending group roots: each group leaves at most `LINE_NODES / 2 + 1`
+/// of its queue for later, the pending ones all belong to groups on the
 /// current chain, and a chain's root depths strictly increase up to
 /// `MAX_DEPTH + 1`.
 const PENDING: usize = (LINE_NODES / 2 + 1) * (MAX_DEPTH as usize + 2) + 1;
 
-/// The treelet placement of the module docs over `total` nodes of any
+/// The group placement of the module docs over `total` nodes of any
 /// representation. `node(i)` runs node `i`'s own checks and returns its
 /// below child (`None` for a leaf), in whatever numbering the caller
 /// walks; `place(i, child, slot)` is told that the rule puts the pair of
@@ -118,7 +118,7 @@ const PENDING: usize = (LINE_NODES / 2 + 1) * (MAX_DEPTH as usize + 2) + 1;
 /// pair out of range, [`BlobError::TooDeep`], [`BlobError::UnreachableNodes`]
 /// when the placed pairs do not end at `total`, and whatever `node` or
 /// `place` return.
-pub fn walk_treelets(
+pub fn walk_line_groups(
     total: usize,
     mut node: impl FnMut(u32) -> Result<Option<u32>, BlobError>,
     mut place: impl FnMut(u32, u32, u32) -> Result<(), BlobError>,
@@ -131,7 +131,7 @@ pub fn walk_treelets(
         depth,
         max: MAX_DEPTH,
     };
-    // The treelet roots left for later: nodes and depths side by side,
+    // The group roots left for later: nodes and depths side by side,
     // the depths in bytes (at most `MAX_DEPTH + 1`), which halves the
     // walk's stack (2,984 bytes with `(u32, u32)` pairs on thumbv7em).
     let mut pending_node = [0u32; PENDING];
@@ -149,7 +149,7 @@ pub fn walk_treelets(
         let mut queue = [(0u32, 0u32); QUEUE];
         queue[0] = root;
         let (mut head, mut tail) = (0, 1);
-        // Breadth first while the line of the treelet's first pair has room.
+        // Breadth first while the line of the group's first pair has room.
         while head < tail && next / LINE_NODES == line {
             let Some(&(i, depth)) = queue.get(head) else {
                 break;
@@ -179,7 +179,7 @@ pub fn walk_treelets(
             two[1] = (child + 1, depth + 1);
             tail += 2;
         }
-        // The rest start treelets of their own, the first of them next.
+        // The rest start groups of their own, the first of them next.
         for k in (head..tail).rev() {
             let (Some(&(i, depth)), Some(slot_node), Some(slot_depth)) = (
                 queue.get(k),

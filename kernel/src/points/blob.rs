@@ -1,7 +1,7 @@
 //! The point blob: its one definition, read by [`PointTreeN::from_bytes`]
 //! and written by [`PointTreeN::write_to`], side by side.
 //!
-//! # Layout (after the 64-byte header, [`crate::wire`])
+//! # Layout (after the 64-byte header, [`crate::blob::wire`])
 //! The header's kind is [`KIND_POINTS`]; its index and item counts are the
 //! point count n, its node count m; its scene bounds are zero (a point's
 //! box has D axes: the root's is the first entry of the node bounds).

@@ -3,18 +3,25 @@
 //! builder's vectors; and the walks over it (single rays in `walk`, packets
 //! in `packet`).
 
+mod batch;
 pub(crate) mod cell_ray;
+mod counting;
 mod counts;
 mod first_hits;
 mod leaf_lanes;
 pub(crate) mod packet;
 mod shallow;
-mod stream;
+mod treelet_tree;
 mod treelets;
+mod turns;
 mod walk;
 
+pub use batch::Batch;
+pub use packet::PacketLanes;
+pub use treelet_tree::{TraceBatch, TreeletTree};
 pub use treelets::{Treelet, TreeletBufferTooSmall};
 
+pub use counting::Counting;
 pub use counts::TraversalCounts;
 pub use shallow::ShallowTree;
 
@@ -36,8 +43,8 @@ pub struct TriangleTree<'a> {
     pub(crate) triangles: &'a [Triangle],
     pub(crate) bounds: Bounds,
     pub(crate) max_depth: u32,
-    /// The treelets scattered rays walk, if any
-    /// ([`TriangleTree::treelets_into`]); empty for a tree as loaded.
+    /// The treelets scattered rays walk, if any: set only inside a
+    /// [`TreeletTree`], empty for a tree as loaded.
     pub(crate) lines: &'a [Treelet],
 }
 

@@ -32,7 +32,7 @@
 // - entry points for 8 coherent rays (Reshetov et al.): 0.86-0.91x, they part after ~2 of 8-25 steps.
 
 use super::cell_ray::CellRay;
-use super::counts::{Tally, TraversalCounts};
+use super::counts::Tally;
 use super::leaf_lanes::{self, LANE_LEAF_MIN};
 use super::{LeafPrims, TriangleTree};
 use crate::blob::{Node, MAX_DEPTH};
@@ -192,15 +192,6 @@ impl<'a> TriangleTree<'a> {
         self.closest_hit_tallied::<_, STACK>(ray, &mut ())
     }
 
-    /// [`TriangleTree::closest_hit`], also counting the nodes visited and
-    /// triangles tested (for heatmaps and tuning; a little slower).
-    #[must_use]
-    pub fn closest_hit_counted(&self, ray: &Ray) -> (Hit, TraversalCounts) {
-        let mut counts = TraversalCounts::default();
-        let hit = self.closest_hit_tallied::<_, STACK>(ray, &mut counts);
-        (hit, counts)
-    }
-
     // Not inlined: the setup and the walk share one frame and one register
     // allocation, whatever loop the caller has (measured faster than
     // inlining into `closest_hits`, and no wide copies of ray structs).
@@ -272,14 +263,6 @@ impl<'a> TriangleTree<'a> {
     #[must_use]
     pub fn any_hit(&self, ray: &Ray) -> bool {
         self.any_hit_tallied::<_, STACK>(ray, &mut ())
-    }
-
-    /// [`TriangleTree::any_hit`], also counting the work done.
-    #[must_use]
-    pub fn any_hit_counted(&self, ray: &Ray) -> (bool, TraversalCounts) {
-        let mut counts = TraversalCounts::default();
-        let hit = self.any_hit_tallied::<_, STACK>(ray, &mut counts);
-        (hit, counts)
     }
 
     // Not inlined: see `closest_hit_tallied`.
@@ -700,7 +683,9 @@ mod tests {
             "only {hits} hits: the test would not see a wrong walk"
         );
         let mut scattered = [Hit::MISS; 200];
-        lined.closest_hits_scattered(&rays, &mut scattered);
+        lined
+            .lined_view()
+            .closest_hits_scattered(&rays, &mut scattered);
         for (ray, got) in rays.iter().zip(&scattered) {
             assert_eq!(got.bits(), tree.closest_hit(ray).bits(), "{ray:?}");
         }

@@ -111,13 +111,13 @@ struct Cell {
 }
 
 /// The tree over `boxes` in `bounds` (which holds them all), in the
-/// blob's treelet order. Empty boxes (`min > max`) are left out. Leaves
+/// blob's line order. Empty boxes (`min > max`) are left out. Leaves
 /// list their boxes in index order.
 #[must_use]
 pub fn build(boxes: &[Bounds], bounds: Bounds, p: &FastParams) -> BuiltTree {
     let tree = depth_first(boxes, bounds, p);
     BuiltTree {
-        nodes: super::layout::into_treelets(&tree.nodes),
+        nodes: super::layout::into_line_groups(&tree.nodes),
         ..tree
     }
 }

@@ -1,11 +1,12 @@
 //! From a builder's tree to the kernel's layout: first depth-first, below
 //! child before above, the `k`-th interior node met with its children at
 //! `2k + 1` and `2k + 2` (both halves laid out at once, in parallel), then
-//! reordered into the cache-line treelets of blob version 2
-//! ([`kdray_kernel::walk_treelets`], the rule `TriangleTree::from_parts`
+//! reordered into the cache-line groups of blob version 2
+//! ([`kdray_kernel::format::walk_line_groups`], the rule `TriangleTree::from_parts`
 //! checks).
 
-use kdray_kernel::{walk_treelets, Axis, Bounds, Node, NodeKind};
+use kdray_kernel::format::walk_line_groups;
+use kdray_kernel::{Axis, Bounds, Node, NodeKind};
 
 use super::BuiltTree;
 
@@ -113,26 +114,26 @@ pub fn flatten(root: BuildNode, bounds: Bounds) -> BuiltTree {
     };
     let max_depth = lay_out(root, place, &mut slot[0], below_root, &mut prims);
     BuiltTree {
-        nodes: into_treelets(&nodes),
+        nodes: into_line_groups(&nodes),
         prims,
         bounds,
         max_depth,
     }
 }
 
-/// The depth-first `nodes` in the kernel's treelet order: the root, the
-/// padding node, then every pair where [`walk_treelets`] places it, each
+/// The depth-first `nodes` in the kernel's line order: the root, the
+/// padding node, then every pair where [`walk_line_groups`] places it, each
 /// interior node's child index renumbered (the scene's top level uses it
 /// too).
 #[must_use]
-pub fn into_treelets(nodes: &[Node]) -> Vec<Node> {
+pub fn into_line_groups(nodes: &[Node]) -> Vec<Node> {
     // Where each depth-first node goes.
     let mut to = vec![0u32; nodes.len()];
     let below = |i: u32| match nodes.get(i as usize).map(|n| n.kind()) {
         Some(NodeKind::Interior { child, .. }) => Ok(Some(child)),
         _ => Ok(None),
     };
-    let placed = walk_treelets(nodes.len() + 1, below, |_, child, slot| {
+    let placed = walk_line_groups(nodes.len() + 1, below, |_, child, slot| {
         to[child as usize] = slot;
         to[child as usize + 1] = slot + 1;
         Ok(())

@@ -238,7 +238,7 @@ impl fmt::Display for BuildError {
             BuildError::TooManyTriangles { count } => write!(
                 f,
                 "{count} triangles is more than a tree can index ({})",
-                kdray_kernel::node::MAX_NODE_FIELD
+                kdray_kernel::format::node::MAX_NODE_FIELD
             ),
             BuildError::Threads { message } => {
                 write!(f, "cannot start the build threads: {message}")
@@ -305,7 +305,7 @@ pub(crate) fn check_triangles(triangles: &[Triangle]) -> Result<(), BuildError> 
             .fold(true, |ok, c| ok & (c.abs() <= kdray_kernel::MAX_COORD))
     };
     let all_in_range = triangles.iter().fold(true, |ok, t| ok & in_range(t));
-    if triangles.len() <= kdray_kernel::node::MAX_NODE_FIELD as usize && all_in_range {
+    if triangles.len() <= kdray_kernel::format::node::MAX_NODE_FIELD as usize && all_in_range {
         return Ok(());
     }
     if let Some(triangle) = triangles.iter().position(|t| !t.is_finite()) {
@@ -323,7 +323,7 @@ pub(crate) fn check_triangles(triangles: &[Triangle]) -> Result<(), BuildError> 
             coordinate,
         });
     }
-    if triangles.len() > kdray_kernel::node::MAX_NODE_FIELD as usize {
+    if triangles.len() > kdray_kernel::format::node::MAX_NODE_FIELD as usize {
         return Err(BuildError::TooManyTriangles {
             count: triangles.len(),
         });

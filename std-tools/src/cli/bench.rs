@@ -14,7 +14,7 @@ use kdray_kernel::{Hit, Ray};
 use kdray_tools::blob::write_triangle_tree;
 use kdray_tools::builders::{build_monitored, BuildMonitor, BuildParams, BuilderKind};
 use kdray_tools::camera::{random_rays, Camera};
-use kdray_tools::scene::{bounds_of, in_stadium, needles, teapot_in_stadium, Scene};
+use kdray_tools::demo_scene::{bounds_of, in_stadium, needles, teapot_in_stadium, DemoScene};
 use kdray_tools::stats::{tree_stats, CostModel};
 use kdray_tools::trace::{trace_serial, PacketWidth, Query};
 use std::path::Path;
@@ -42,7 +42,10 @@ pub(crate) struct Args {
     mesh_args: MeshArgs,
 }
 
-fn scene(spec: &str, mesh_args: MeshArgs) -> Result<(String, Scene), Box<dyn std::error::Error>> {
+fn scene(
+    spec: &str,
+    mesh_args: MeshArgs,
+) -> Result<(String, DemoScene), Box<dyn std::error::Error>> {
     if spec == "stadium" {
         return Ok(("knot-in-stadium".into(), teapot_in_stadium()));
     }
@@ -55,7 +58,7 @@ fn scene(spec: &str, mesh_args: MeshArgs) -> Result<(String, Scene), Box<dyn std
     }
     let triangles = mesh_args.load(Path::new(spec))?;
     let focus = bounds_of(&triangles);
-    Ok((file_stem(spec), Scene { triangles, focus }))
+    Ok((file_stem(spec), DemoScene { triangles, focus }))
 }
 
 fn file_stem(p: &str) -> String {

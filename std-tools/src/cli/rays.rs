@@ -5,7 +5,7 @@
 use super::render::{tree_blob, View};
 use super::trace::parse_width;
 use super::{CmdResult, MeshArgs, MAX_PIXELS};
-use kdray_kernel::{Hit, PacketWidth, Ray};
+use kdray_kernel::{Batch, Hit, PacketWidth, Ray};
 use kdray_tools::camera::random_rays;
 use kdray_tools::io;
 use kdray_tools::render::{shadow_ray, tile_size, tiled_pixels, RenderParams};
@@ -83,7 +83,14 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             let params = RenderParams::new(camera, w, h);
             let primary = camera.rays(w, h);
             let mut hits = vec![Hit::MISS; primary.len()];
-            tree.closest_hits_with(PacketWidth::One, &primary, &mut hits);
+            tree.closest_hits(
+                &primary,
+                &mut hits,
+                Batch {
+                    width: PacketWidth::One,
+                    ..Batch::default()
+                },
+            );
             primary
                 .iter()
                 .zip(&hits)

@@ -52,7 +52,7 @@ pub fn render_heatmap(
     let (w, h) = (params.width, params.height);
     let costs = in_tiles(w, h, (1, 1), progress, |coords, out: &mut [u32]| {
         for (&[x, y], o) in coords.iter().zip(out) {
-            let (_, c) = tree.closest_hit_counted(&params.camera.ray(x, y, w, h));
+            let (_, c) = tree.counting().closest_hit(&params.camera.ray(x, y, w, h));
             *o = c.nodes.saturating_add(c.triangles);
         }
     });

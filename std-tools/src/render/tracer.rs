@@ -2,7 +2,7 @@
 //! brute force over every triangle (the oracle the tests render with).
 
 use kdray_kernel::{
-    any_hit_brute, closest_hit_brute, Hit, PacketWidth, Ray, Triangle, TriangleTree,
+    any_hit_brute, closest_hit_brute, Batch, Hit, PacketWidth, Ray, Triangle, TriangleTree,
 };
 
 /// Answers batches of rays (one tile's worth, traced as one packet when
@@ -35,10 +35,24 @@ impl Tracer for TreeTracer<'_, '_> {
         self.width
     }
     fn closest(&self, rays: &[Ray], hits: &mut [Hit]) {
-        self.tree.closest_hits_with(self.width, rays, hits);
+        self.tree.closest_hits(
+            rays,
+            hits,
+            Batch {
+                width: self.width,
+                ..Batch::default()
+            },
+        );
     }
     fn occluded(&self, rays: &[Ray], out: &mut [bool]) {
-        self.tree.any_hits_with(self.width, rays, out);
+        self.tree.any_hits(
+            rays,
+            out,
+            Batch {
+                width: self.width,
+                ..Batch::default()
+            },
+        );
     }
 }
 

@@ -6,6 +6,8 @@ use super::*;
 use crate::blob::Node;
 use crate::geometry::{Axis, Bounds};
 use crate::triangle::Triangle;
+use crate::triangle_tree::batch::scattered;
+use crate::triangle_tree::Batch;
 
 use crate::test_rng::Rng;
 
@@ -145,11 +147,21 @@ fn lanes_equal_single_rays_bitwise() {
                     }
                 }
             }
-            check_packet(&tree, &p16, tree.closest_hit16(&p16), tree.any_hit16(&p16));
-            let h8 = tree.closest_hit8(&p8);
+            check_packet(
+                &tree,
+                &p16,
+                tree.closest_hit_packet(&p16),
+                tree.any_hit_packet(&p16),
+            );
+            let h8 = tree.closest_hit_packet(&p8);
             hits += h8.iter().filter(|h| h.is_hit()).count();
-            check_packet(&tree, &p8, h8, tree.any_hit8(&p8));
-            check_packet(&tree, &p4, tree.closest_hit4(&p4), tree.any_hit4(&p4));
+            check_packet(&tree, &p8, h8, tree.any_hit_packet(&p8));
+            check_packet(
+                &tree,
+                &p4,
+                tree.closest_hit_packet(&p4),
+                tree.any_hit_packet(&p4),
+            );
         }
     }
     // The test must exercise hits, not only misses.
@@ -169,14 +181,24 @@ fn coherent_packets_with_shared_signs() {
                 Vec3::new(x as f32 / 64.0 - 0.5, y as f32 / 64.0 - 0.5, -1.0)
             });
             let p = Packet8::from_vec3([eye; 8], dirs, 0.0, f32::INFINITY);
-            check_packet(&tree, &p, tree.closest_hit8(&p), tree.any_hit8(&p));
+            check_packet(
+                &tree,
+                &p,
+                tree.closest_hit_packet(&p),
+                tree.any_hit_packet(&p),
+            );
             // Two such tiles side by side in 16 lanes.
             let dirs16 = core::array::from_fn(|l| {
                 let (x, y) = (tx * 4 + l % 4 + 64 * (l / 8), ty * 2 + l / 4 % 2);
                 Vec3::new(x as f32 / 128.0 - 0.5, y as f32 / 64.0 - 0.5, -1.0)
             });
             let p = Packet16::from_vec3([eye; 16], dirs16, 0.0, f32::INFINITY);
-            check_packet(&tree, &p, tree.closest_hit16(&p), tree.any_hit16(&p));
+            check_packet(
+                &tree,
+                &p,
+                tree.closest_hit_packet(&p),
+                tree.any_hit_packet(&p),
+            );
         }
     }
 }
@@ -194,9 +216,23 @@ fn slices_trace_every_ray_and_stop_at_the_shorter() {
         PacketWidth::Sixteen,
     ] {
         let mut hits = [Hit::OCCLUDED; 22];
-        tree.closest_hits_with(width, &rays, &mut hits);
+        tree.closest_hits(
+            &rays,
+            &mut hits,
+            Batch {
+                width,
+                ..Batch::default()
+            },
+        );
         let mut occ = [true; 20];
-        tree.any_hits_with(width, &rays, &mut occ);
+        tree.any_hits(
+            &rays,
+            &mut occ,
+            Batch {
+                width,
+                ..Batch::default()
+            },
+        );
         for (i, r) in rays.iter().enumerate() {
             assert_eq!(hits[i].bits(), tree.closest_hit(r).bits());
             if let Some(&o) = occ.get(i) {
@@ -228,12 +264,14 @@ fn answers(tree: &TriangleTree, rays: &[Ray]) -> ([u32; 4], [[u32; 4]; 2], u32) 
             Packet8::from_rays(chunk),
             Packet16::from_rays(chunk),
         );
-        tree.closest_hit4(&p4).iter().for_each(&mut fold);
-        tree.closest_hit8(&p8).iter().for_each(&mut fold);
-        tree.closest_hit16(&p16).iter().for_each(&mut fold);
-        tree.any_hit4(&p4).into_iter().for_each(&mut fold_any);
-        tree.any_hit8(&p8).into_iter().for_each(&mut fold_any);
-        tree.any_hit16(&p16).into_iter().for_each(&mut fold_any);
+        tree.closest_hit_packet(&p4).iter().for_each(&mut fold);
+        tree.closest_hit_packet(&p8).iter().for_each(&mut fold);
+        tree.closest_hit_packet(&p16).iter().for_each(&mut fold);
+        tree.any_hit_packet(&p4).into_iter().for_each(&mut fold_any);
+        tree.any_hit_packet(&p8).into_iter().for_each(&mut fold_any);
+        tree.any_hit_packet(&p16)
+            .into_iter()
+            .for_each(&mut fold_any);
         for r in chunk {
             fold(&tree.closest_hit(r));
             fold_any(tree.any_hit(r));
@@ -244,8 +282,22 @@ fn answers(tree: &TriangleTree, rays: &[Ray]) -> ([u32; 4], [[u32; 4]; 2], u32) 
     let mut occ = [false; 64];
     for width in [PacketWidth::Four, PacketWidth::Eight, PacketWidth::Sixteen] {
         for chunk in rays.chunks(64) {
-            tree.closest_hits_with(width, chunk, &mut hits);
-            tree.any_hits_with(width, chunk, &mut occ);
+            tree.closest_hits(
+                chunk,
+                &mut hits,
+                Batch {
+                    width,
+                    ..Batch::default()
+                },
+            );
+            tree.any_hits(
+                chunk,
+                &mut occ,
+                Batch {
+                    width,
+                    ..Batch::default()
+                },
+            );
             for (h, &o) in hits.iter().zip(&occ).take(chunk.len()) {
                 for (s, b) in slices[0].iter_mut().zip(h.bits()) {
                     *s = s.wrapping_mul(31).wrapping_add(b);
@@ -306,12 +358,24 @@ fn dispatch_runs_the_detected_level() {
     let tree = TriangleTree::from_parts(&nodes, &prims, &tris, BOUNDS).unwrap();
     let rays: [Ray; 24] = core::array::from_fn(|i| level_rays(&mut rng, 64).nth(i * 2).unwrap());
     let mut hits = [Hit::MISS; 24];
-    tree.closest_hits_with(PacketWidth::Eight, &rays, &mut hits);
+    tree.closest_hits(
+        &rays,
+        &mut hits,
+        Batch {
+            width: PacketWidth::Eight,
+            ..Batch::default()
+        },
+    );
     for (r, h) in rays.iter().zip(&hits) {
         assert_eq!(h.bits(), tree.closest_hit(r).bits());
     }
     let p = Packet16::from_rays(&rays);
-    check_packet(&tree, &p, tree.closest_hit16(&p), tree.any_hit16(&p));
+    check_packet(
+        &tree,
+        &p,
+        tree.closest_hit_packet(&p),
+        tree.any_hit_packet(&p),
+    );
     if cfg!(miri) {
         assert_eq!(crate::cpu::detected_isa(), crate::cpu::Isa::Baseline);
         assert!(crate::cpu::set_isa(crate::cpu::Isa::Avx2).is_err());
@@ -331,7 +395,7 @@ fn rays_in_turns_equal_single_rays_bitwise() {
         "the slices would not walk these in turns"
     );
     let mut hits = [Hit::OCCLUDED; 301];
-    tree.closest_hits_stream(&rays, &mut hits);
+    tree.closest_hits_in_turns(&rays, &mut hits);
     for (i, r) in rays.iter().enumerate() {
         assert_eq!(hits[i].bits(), tree.closest_hit(r).bits(), "ray {i}: {r:?}");
     }
@@ -339,7 +403,7 @@ fn rays_in_turns_equal_single_rays_bitwise() {
     assert!(closest > 0, "no ray hit");
     // Fewer answers than rays: the first `hits.len()` rays are answered.
     let mut fewer = [Hit::OCCLUDED; 300];
-    tree.closest_hits_stream(&rays, &mut fewer);
+    tree.closest_hits_in_turns(&rays, &mut fewer);
     assert!(fewer.iter().zip(&hits).all(|(a, b)| a.bits() == b.bits()));
     // One origin: not scattered.
     let fan = rays.map(|r| Ray {

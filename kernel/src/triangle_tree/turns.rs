@@ -1,11 +1,11 @@
-//! Several single rays walked in turns: the slice entry points' one-ray
+//! Several single rays walked in turns: the batch calls' one-ray
 //! closest-hit path for rays that share no cells (random rays, bounces).
 //! Any hit walks back to front instead, which needs no turns (the
-//! `AnyHit` query in `packet/mod.rs`).
+//! `AnyHit` query in `batch.rs`).
 //!
 //! Such a ray's walk waits on memory: each step's child pair and each
 //! leaf's triangles are a cache miss more often than not, and the next
-//! step depends on it. Walking [`STREAM`] rays in turns, one step each,
+//! step depends on it. Walking [`WALKS`] rays in turns, one step each,
 //! and prefetching what each ray's next step reads, lets their misses
 //! overlap instead of queueing. Each ray's steps are exactly its single
 //! walk's (`walk.rs`), in the same order, with the same tests, so each
@@ -15,7 +15,7 @@
 use super::cell_ray::CellRay;
 use super::walk::{ClosestVisit, LeafIter, Pending, Visit};
 use super::TriangleTree;
-use crate::blob::{Node, MAX_DEPTH};
+use crate::blob::{Node, LINE_NODES, MAX_DEPTH};
 use crate::geometry::{Hit, Ray};
 use crate::lanes::{prefetch, Span};
 use crate::triangle::{Closest, ShearedRay};
@@ -26,7 +26,7 @@ use core::mem::MaybeUninit;
 /// hits): 8 against 4 walks shadow rays 1.3-1.45x, random rays 1.2x, 6
 /// walks 1.1x, 12 as 8; not taken: a leaf's triangles tested in the turn
 /// that fetches its indices (no separate prefetch turn), 0.75-0.8x.
-pub(crate) const STREAM: usize = 8;
+pub(crate) const WALKS: usize = 8;
 
 /// Where one ray's walk stands between its turns: the walk's loop
 /// variables (`walk.rs`).
@@ -158,10 +158,6 @@ impl<'a> TriangleTree<'a> {
     }
 }
 
-/// Nodes per 64-byte line: indices that differ only in the low bits share
-/// a line (the node array starts on a line in a loaded blob).
-const LINE_NODES: usize = 8;
-
 /// A ray's set-up for its walk; `None` for an invalid ray or one that
 /// misses the scene box (its answer is a miss).
 #[inline(always)]
@@ -176,8 +172,8 @@ fn start(tree: &TriangleTree<'_>, ray: &Ray, w: &mut Walk) -> Option<(ShearedRay
 
 /// The slots' walks; a slot holds ray `at` of the slice, or none.
 struct Slots {
-    walks: [Walk; STREAM],
-    at: [usize; STREAM],
+    walks: [Walk; WALKS],
+    at: [usize; WALKS],
 }
 
 impl Slots {
@@ -192,7 +188,7 @@ impl Slots {
                 armed: false,
                 stack: [MaybeUninit::uninit(); MAX_DEPTH as usize],
             }),
-            at: [usize::MAX; STREAM],
+            at: [usize::MAX; WALKS],
         }
     }
 }
@@ -220,12 +216,12 @@ impl Nearest {
 
 impl TriangleTree<'_> {
     /// `hits[i] = closest_hit(&rays[i])` for the first
-    /// `min(rays.len(), hits.len())` rays, [`STREAM`] walks in turns: a
+    /// `min(rays.len(), hits.len())` rays, [`WALKS`] walks in turns: a
     /// slot whose walk ends takes the next ray.
-    pub(crate) fn closest_hits_stream(&self, rays: &[Ray], hits: &mut [Hit]) {
+    pub(crate) fn closest_hits_in_turns(&self, rays: &[Ray], hits: &mut [Hit]) {
         let n = rays.len().min(hits.len());
         let mut slots = Slots::new();
-        let mut rs: [Option<(ShearedRay, CellRay, Nearest)>; STREAM] =
+        let mut rs: [Option<(ShearedRay, CellRay, Nearest)>; WALKS] =
             core::array::from_fn(|_| None);
         let mut next = 0usize;
         let mut live = 0usize;

@@ -10,7 +10,7 @@ use std::f32::consts::TAU;
 
 /// The scene's triangles and the box around its detailed object.
 #[derive(Clone, Debug)]
-pub struct Scene {
+pub struct DemoScene {
     /// All triangles: the knot first, then the stadium.
     pub triangles: Vec<Triangle>,
     /// The bounds of the knot (what a camera should frame).
@@ -105,7 +105,7 @@ fn closed_box(half: f32, height: f32) -> Vec<Triangle> {
 
 /// The built-in teapot-in-a-stadium scene (deterministic).
 #[must_use]
-pub fn teapot_in_stadium() -> Scene {
+pub fn teapot_in_stadium() -> DemoScene {
     let mut triangles = tube(1024, 16, 0.18);
     let focus = bounds_of(&triangles);
     let s = 100.0;
@@ -120,14 +120,14 @@ pub fn teapot_in_stadium() -> Scene {
         triangles.extend(rect([d - 2.0, h, -s], [d, h, s]));
         triangles.extend(rect([d - 2.0, h - 1.0, -s], [d - 2.0, h, s]));
     }
-    Scene { triangles, focus }
+    DemoScene { triangles, focus }
 }
 
 /// `mesh` scaled to a largest extent of 1, standing at the centre of a
 /// closed box 1000 wide and 200 high (12 triangles after the mesh's): the
 /// teapot-in-a-stadium of `anchors/embree/gen_stadium.py`, focus = the mesh.
 #[must_use]
-pub fn in_stadium(mesh: &[Triangle]) -> Scene {
+pub fn in_stadium(mesh: &[Triangle]) -> DemoScene {
     let b = bounds_of(mesh);
     let extent = (0..3).fold(0.0f32, |m, a| m.max(b.max[a] - b.min[a]));
     let scale = 1.0 / extent.max(f32::MIN_POSITIVE);
@@ -146,7 +146,7 @@ pub fn in_stadium(mesh: &[Triangle]) -> Scene {
         .collect();
     let focus = bounds_of(&triangles);
     triangles.extend(closed_box(500.0, 200.0));
-    Scene { triangles, focus }
+    DemoScene { triangles, focus }
 }
 
 /// `n` long, thin, axis-aligned triangles ("needles", 50 long and 0.05
@@ -154,7 +154,7 @@ pub fn in_stadium(mesh: &[Triangle]) -> Scene {
 /// planes on a grid: every box edge is a candidate split plane and most
 /// triangles straddle most planes. Deterministic.
 #[must_use]
-pub fn needles(n: usize) -> Scene {
+pub fn needles(n: usize) -> DemoScene {
     let mut rng = crate::rng::Rng::new(42);
     let triangles: Vec<Triangle> = (0..n)
         .map(|i| {
@@ -172,5 +172,5 @@ pub fn needles(n: usize) -> Scene {
         })
         .collect();
     let focus = bounds_of(&triangles);
-    Scene { triangles, focus }
+    DemoScene { triangles, focus }
 }

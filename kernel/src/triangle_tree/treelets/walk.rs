@@ -1,289 +1,29 @@
-//! Seven split planes a step: the tree regrouped into complete 3-level
-//! treelets, one 64-byte [`Treelet`] each, for rays that share no cells
-//! (random rays, bounces).
-//!
-//! A treelet holds a node and the two levels below it: slot 0 the node,
-//! slots `2s + 1` and `2s + 2` the below and above children of slot `s`;
-//! its 8 exits are the children of the bottom slots (`2(s - 3)` below,
-//! `2(s - 3) + 1` above): another treelet, a leaf or nothing. A leaf or an
-//! empty cell inside a treelet falls through planes at `+inf` (the whole
-//! cell below, for either sign of the direction) to an exit below it.
-//!
-//! A step evaluates the 7 planes at once (`t_split` from one permute of
-//! the origin and of `1/dir` by the slots' axes), the 8 exits' intervals
-//! three levels down in lanes that hold the exits in the order a ray
-//! meets them, goes on with the nearest live exit and pushes the others.
-//! Each plane is the one-plane walk's (`walk.rs`): the same `t_split`,
-//! the same tests (`!(t < lo)` for the near side, `!(t > hi)` for the far,
-//! a NaN visiting both), the same intervals widened by the slack and the
-//! same cutoff, so the treelet walk visits the leaves the one-plane walk
-//! visits, in the same front-to-back order (a treelet's lower planes see
-//! the cutoff of when it was entered, not of when a pushed exit is
-//! popped, so now and then a cell more), and each answer is the single
-//! ray's bit for bit: triangles are tested over the ray's own interval.
-//!
-//! Why in turns: measured on the walks alone (leaves counted, not tested;
-//! the same leaves per ray; bunny, teapot, sponza and the built-in scene,
-//! one core), one ray at a time the vector step is a longer chain than
-//! three scalar steps whose branches predict (~20 ns a treelet against
-//! ~4 ns a step): 0.44-0.9x the one-plane walk on camera rays, 1.0-1.25x
-//! on random rays, whose near/far branch is a coin toss. [`TURNS`] walks
-//! in turns overlap the chains: random rays 1.4-1.9x, camera rays
-//! 0.63-1.3x, so coherent batches keep the one-plane walk. AVX-512 (mask
-//! registers, compress) ran no faster than AVX2 (compares, blends, a
-//! permute table), which is the level taken.
-//!
-//! Tried: the single-ray walk (camera rays) one plane a step through the
-//! lines, each slot's plane read at its fixed place (no child index, no
-//! empty-cell check inside a line): bunny and teapot camera rays 0.71x
-//! the one-plane walk, the same hits. It took 17% more steps (an empty
-//! cell inside a treelet is stepped into, where the one-plane walk skips
-//! it at its parent), and a step was no cheaper (~40 instructions: the
-//! level test and the third level's exits replace the child reads).
-//!
-//! The treelets live in the caller's memory ([`TriangleTree::treelets_into`]
-//! writes them and returns the tree that uses them); the blob is unchanged.
+//! Walking the treelets: scattered rays, four in turns, 7 split planes a
+//! vector step at the AVX2 level (the module docs of `treelets`).
 
-use super::TriangleTree;
-use crate::blob::{Node, MAX_DEPTH};
 use crate::geometry::{Hit, Ray};
 #[cfg(target_arch = "x86_64")]
 use crate::lanes::{dispatch, Job, Level};
-use bytemuck::{Pod, Zeroable};
-use core::fmt;
-
-/// Three levels of the tree in one 64-byte line: the 7 slots' split
-/// planes and axes and the 8 exits (module docs).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-#[repr(C, align(64))]
-pub struct Treelet {
-    /// The slots' split positions (`+inf` for a slot a leaf or an empty
-    /// cell falls through).
-    split: [f32; 7],
-    /// The slots' axes, two bits each, slot `s` at bit `2s`.
-    axes: u32,
-    /// Each exit: a treelet's index, [`LEAF`] and a leaf's node index, or
-    /// [`DEAD`].
-    exit: [u32; 8],
-}
-
-const _: () = assert!(core::mem::size_of::<Treelet>() == 64);
-
-/// [`TriangleTree::treelets_into`]'s buffer is shorter than the tree's
-/// treelets.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct TreeletBufferTooSmall {
-    /// The tree's treelets ([`TriangleTree::treelet_count`]).
-    pub needed: usize,
-    /// The buffer's length.
-    pub have: usize,
-}
-
-impl fmt::Display for TreeletBufferTooSmall {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "the tree has {} treelets, the buffer room for {}",
-            self.needed, self.have
-        )
-    }
-}
-
-impl core::error::Error for TreeletBufferTooSmall {}
-
-/// An exit to nothing: an empty cell, or below a leaf that fell through.
-const DEAD: u32 = u32::MAX;
-/// The tag of an exit to a leaf; the low bits are its node index (node
-/// indices are below 2^30).
-const LEAF: u32 = 1 << 31;
-
-/// What a slot holds.
-#[derive(Clone, Copy)]
-enum Slot {
-    Interior(Node, u32),
-    Leaf(u32),
-    Dead,
-}
-
-impl<'a> TriangleTree<'a> {
-    /// The slot node `i` makes (`Dead` for an index out of range).
-    fn slot(&self, i: usize) -> Slot {
-        match self.nodes.get(i) {
-            Some(n) if !n.is_leaf() => Slot::Interior(*n, i as u32),
-            Some(n) if !n.is_empty_leaf() => Slot::Leaf(i as u32),
-            _ => Slot::Dead,
-        }
-    }
-
-    /// The below and above slots under `s`.
-    fn children_slots(&self, s: Slot) -> (Slot, Slot) {
-        match s {
-            Slot::Interior(n, _) => {
-                let c = n.upper() as usize;
-                (self.slot(c), self.slot(c + 1))
-            }
-            Slot::Leaf(l) => (Slot::Leaf(l), Slot::Dead),
-            Slot::Dead => (Slot::Dead, Slot::Dead),
-        }
-    }
-
-    /// How many treelets [`TriangleTree::treelets_into`] writes: one per
-    /// interior node at a depth divisible by 3. O(nodes), no allocation.
-    #[must_use]
-    pub fn treelet_count(&self) -> usize {
-        if !matches!(self.slot(0), Slot::Interior(..)) {
-            return 0;
-        }
-        // Depth first on a fixed stack of (node, depth); at most one visit
-        // a node (a valid tree is a tree; an unchecked one is cut short).
-        let mut stack = [(0u32, 0u32); MAX_DEPTH as usize + 2];
-        let (mut sp, mut count, mut visits) = (1usize, 0usize, 0usize);
-        while sp > 0 && visits < self.nodes.len() {
-            sp -= 1;
-            visits += 1;
-            let Some(&(i, depth)) = stack.get(sp) else {
-                break;
-            };
-            if let Slot::Interior(n, _) = self.slot(i as usize) {
-                count += usize::from(depth % 3 == 0);
-                for c in [n.upper(), n.upper().wrapping_add(1)] {
-                    if let Some(e) = stack.get_mut(sp) {
-                        *e = (c, depth + 1);
-                        sp += 1;
-                    }
-                }
-            }
-        }
-        count
-    }
-
-    /// Writes the tree's treelets into `buf` and returns the tree that
-    /// walks scattered rays through them (the slice entry points, e.g.
-    /// [`TriangleTree::closest_hits_with`]; single-ray queries and
-    /// coherent batches keep the one-plane walk). A tree whose root is a
-    /// leaf has none.
-    ///
-    /// # Errors
-    /// [`TreeletBufferTooSmall`] for a buffer shorter than
-    /// [`TriangleTree::treelet_count`].
-    ///
-    /// # Example
-    /// ```
-    /// use glam::Vec3;
-    /// use kdray_kernel::{Hit, Ray, Treelet, TriangleTree};
-    /// static CUBE: &kdray_kernel::Aligned<[u8]> =
-    ///     kdray_kernel::include_aligned!("../../golden/cube-v3.kdt");
-    /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
-    /// let mut lines = vec![Treelet::default(); tree.treelet_count()];
-    /// let lined = tree.treelets_into(&mut lines).expect("room for every treelet");
-    ///
-    /// // Bounces: rays from scattered points inside the cube, every which way.
-    /// let rays: Vec<Ray> = (0..64)
-    ///     .map(|i| {
-    ///         let f = i as f32;
-    ///         let p = Vec3::new(0.1 + (f * 0.37) % 0.8, 0.1 + (f * 0.61) % 0.8, 0.5);
-    ///         Ray::new(p, Vec3::new((f * 1.3).sin(), (f * 0.7).cos(), (f * 0.11) % 1.0 - 0.5))
-    ///     })
-    ///     .collect();
-    /// let mut hits = vec![Hit::MISS; rays.len()];
-    /// lined.closest_hits_scattered(&rays, &mut hits);
-    /// for (ray, hit) in rays.iter().zip(&hits) {
-    ///     assert!(hit.is_hit()); // the cube is closed
-    ///     assert_eq!(hit.bits(), tree.closest_hit(ray).bits());
-    /// }
-    /// # Ok::<(), kdray_kernel::BlobError>(())
-    /// ```
-    pub fn treelets_into<'t>(
-        &self,
-        buf: &'t mut [Treelet],
-    ) -> Result<TriangleTree<'t>, TreeletBufferTooSmall>
-    where
-        'a: 't,
-    {
-        let needed = self.treelet_count();
-        let have = buf.len();
-        let Some(lines) = buf.get_mut(..needed) else {
-            return Err(TreeletBufferTooSmall { needed, have });
-        };
-        // Breadth first: a treelet's children come after it, so each is
-        // written when its turn comes; until then its first exit holds
-        // its root node.
-        let mut next = usize::from(needed > 0);
-        if let Some(first) = lines.first_mut() {
-            first.exit[0] = 0;
-        }
-        // Only the treelets written as some exit's child (all of them, in
-        // a valid tree); the loop never reads a line it did not write.
-        let mut i = 0;
-        while i < next {
-            let Some(root) = lines.get(i).map(|t| t.exit[0]) else {
-                break;
-            };
-            let mut slots = [Slot::Dead; 7];
-            slots[0] = self.slot(root as usize);
-            for s in 0..3 {
-                (slots[2 * s + 1], slots[2 * s + 2]) = self.children_slots(slots[s]);
-            }
-            let mut t = Treelet {
-                split: [f32::INFINITY; 7],
-                axes: 0,
-                exit: [DEAD; 8],
-            };
-            for (s, slot) in slots.iter().enumerate() {
-                if let Slot::Interior(n, _) = *slot {
-                    t.split[s] = n.split();
-                    t.axes |= (n.axis_bits() as u32) << (2 * s);
-                }
-            }
-            for (b, &bottom) in slots.iter().skip(3).enumerate() {
-                let (below, above) = self.children_slots(bottom);
-                for (e, c) in [(2 * b, below), (2 * b + 1, above)] {
-                    t.exit[e] = match c {
-                        Slot::Interior(_, n) => match lines.get_mut(next) {
-                            Some(child) => {
-                                child.exit[0] = n;
-                                next += 1;
-                                (next - 1) as u32
-                            }
-                            // Only an unchecked tree with a cycle.
-                            None => DEAD,
-                        },
-                        Slot::Leaf(l) => LEAF | l,
-                        Slot::Dead => DEAD,
-                    };
-                }
-            }
-            if let Some(line) = lines.get_mut(i) {
-                *line = t;
-            }
-            i += 1;
-        }
-        Ok(TriangleTree {
-            lines: &*lines,
-            ..*self
-        })
-    }
-}
+use crate::triangle_tree::TriangleTree;
 
 impl TriangleTree<'_> {
     /// `hits[i] = closest_hit(&rays[i])` for the first
     /// `min(rays.len(), hits.len())` rays, for rays that share no cells
-    /// (random rays, bounces off a surface): walked in turns, through the
-    /// treelets where the tree has them ([`TriangleTree::treelets_into`])
-    /// and the processor AVX2, otherwise with the one-plane walk (in turns
-    /// on x86-64 when the tree outgrows the cache). The slice entry points
-    /// ([`TriangleTree::closest_hits_with`]) take this path for the blocks
-    /// of 256 rays they find scattered; call it for a batch known to be.
-    ///
-    /// # Panics
-    /// Never. No allocation (the four walks in turns take ~9 KiB of stack).
-    pub fn closest_hits_scattered(&self, rays: &[Ray], hits: &mut [Hit]) {
+    /// (random rays, bounces): walked in turns, through the treelets where
+    /// the tree has them and the processor AVX2, otherwise with the
+    /// one-plane walk (in turns on x86-64 when the tree outgrows the
+    /// cache). The batch calls take this path for the blocks of 256 rays
+    /// they find scattered. No allocation (the four walks in turns take
+    /// ~9 KiB of stack).
+    pub(crate) fn closest_hits_scattered(&self, rays: &[Ray], hits: &mut [Hit]) {
         #[cfg(target_arch = "x86_64")]
         if !self.lines.is_empty() && dispatch(TreeletWalks(self, rays, &mut *hits)) {
             return;
         }
-        if cfg!(target_arch = "x86_64") && self.data_bytes() > super::packet::TURNS_MIN_BYTES {
-            self.closest_hits_stream(rays, hits);
+        if cfg!(target_arch = "x86_64")
+            && self.data_bytes() > crate::triangle_tree::batch::TURNS_MIN_BYTES
+        {
+            self.closest_hits_in_turns(rays, hits);
         } else {
             for (h, r) in hits.iter_mut().zip(rays) {
                 *h = self.closest_hit(r);
@@ -318,11 +58,12 @@ impl Job for TreeletWalks<'_, '_> {
 pub(crate) const TURNS: usize = 4;
 
 #[cfg(target_arch = "x86_64")]
-pub(crate) use x86::closest_hits_treelets;
+use x86::closest_hits_treelets;
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{Treelet, DEAD, LEAF, TURNS};
+    use super::super::{Treelet, DEAD, LEAF};
+    use super::TURNS;
     use crate::geometry::{Hit, Ray};
     use crate::lanes::{prefetch, Span};
     use crate::triangle::{dominant_axis, Closest, ShearedRay};
@@ -476,7 +217,7 @@ mod x86 {
         /// As [`Walk::step`].
         #[inline(always)]
         unsafe fn treelet(&mut self, t: &Treelet) -> bool {
-            // SAFETY (the block): the caller has AVX2; every load reads 8
+            // SAFETY: the caller has AVX2; every load reads 8
             // lanes of an array of 8 (the splits and the axes word as one
             // 32-byte load from the treelet's start), every store writes
             // an 8-lane slice, bounds-checked.
@@ -596,7 +337,7 @@ mod x86 {
     /// comes after the other walks' (`matrix.sh`'s random rays, one core:
     /// bunny 1.15x -> 1.5x the one-plane walk in turns with the prefetch).
     /// Tried: a leaf's triangles prefetched in a turn of their own before
-    /// its test, as `stream.rs` does: teapot 1.17x -> 1.05x, sponza 1.33x
+    /// its test, as `turns.rs` does: teapot 1.17x -> 1.05x, sponza 1.33x
     /// -> 1.22x, the bunny the same; eight walks in turns as four.
     #[inline(always)]
     fn prefetch_exit(tree: &TriangleTree<'_>, code: u32) {

@@ -1,0 +1,382 @@
+//! Batches: a slice of rays, each ray's answer in its slot, traced by
+//! whichever walk suits each block of [`BLOCK`] rays: packets of
+//! consecutive rays where their origins lie close together (camera tiles),
+//! single rays walked in turns where they lie far apart (bounces, random
+//! rays), and, given scratch memory, a scattered any-hit batch in the
+//! Morton order of its origins. Every path gives each ray its single
+//! ray's answer, bit for bit.
+
+use super::packet::{lane_bools, sixteen_lanes, LaneRays, LaneStack, PacketWidth};
+use super::TriangleTree;
+use crate::geometry::{item_index, sort_items, Bounds, Hit, MortonGrid, Ray, MISS};
+use crate::lanes::{dispatch, Job, Lanes, Level};
+
+/// How a batch is traced ([`TriangleTree::closest_hits`],
+/// [`TriangleTree::any_hits`]): `Batch::default()` suits most batches.
+/// Whatever it says, each ray gets its single ray's answer bit for bit.
+#[derive(Debug, Default)]
+pub struct Batch<'s> {
+    /// The packet width for blocks of coherent rays (8 by default): order
+    /// such rays in small image tiles (4x2 pixels for 8 lanes, two such
+    /// tiles side by side for 16). Blocks of scattered rays walk as single
+    /// rays whatever the width.
+    pub width: PacketWidth,
+    /// Room for an any-hit batch to be traced in the Morton order of its
+    /// rays' origins (a radix sort of one key a ray): two words a ray
+    /// (`2 * rays.len()`). Give it for a large batch of scattered shadow
+    /// rays, as from random surface points: their walks then share cells,
+    /// nodes and triangles that stay in cache (docs/results.md has the
+    /// gain). With less, or past `u32::MAX` rays, or for closest hits
+    /// (which walk scattered blocks in turns instead), the batch is traced
+    /// in its own order.
+    pub scratch: &'s mut [u64],
+}
+
+impl TriangleTree<'_> {
+    /// The closest hit of every ray: `hits[i]` is bit for bit
+    /// `closest_hit(&rays[i])`. Only the first
+    /// `min(rays.len(), hits.len())` entries are traced.
+    ///
+    /// # Panics
+    /// Never. No allocation.
+    ///
+    /// # Example
+    /// ```
+    /// use glam::Vec3;
+    /// use kdray_kernel::{Batch, Hit, Ray, TriangleTree};
+    /// static CUBE: &kdray_kernel::Aligned<[u8]> =
+    ///     kdray_kernel::include_aligned!("../../golden/cube-v3.kdt");
+    /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
+    ///
+    /// // 11 rays fanning out from inside the cube: a packet of 8, then one of 3.
+    /// let rays: Vec<Ray> = (0..11)
+    ///     .map(|i| Ray::new(Vec3::splat(0.5), Vec3::new(1.0, i as f32 * 0.1 - 0.5, 0.3)))
+    ///     .collect();
+    /// let mut hits = vec![Hit::MISS; rays.len()];
+    /// tree.closest_hits(&rays, &mut hits, Batch::default());
+    /// for (ray, hit) in rays.iter().zip(&hits) {
+    ///     assert!(hit.is_hit()); // the cube is closed
+    ///     assert_eq!(hit.bits(), tree.closest_hit(ray).bits());
+    /// }
+    /// # Ok::<(), kdray_kernel::BlobError>(())
+    /// ```
+    pub fn closest_hits(&self, rays: &[Ray], hits: &mut [Hit], batch: Batch<'_>) {
+        self.slice_with::<ClosestHit>(batch.width, rays, hits);
+    }
+
+    /// Whether each ray hits anything: `occluded[i] == any_hit(&rays[i])`.
+    /// Only the first `min(rays.len(), occluded.len())` entries are traced.
+    ///
+    /// # Panics
+    /// Never. No allocation (rays gathered in Morton order take 8 KiB of
+    /// stack, 256 at a time).
+    pub fn any_hits(&self, rays: &[Ray], occluded: &mut [bool], batch: Batch<'_>) {
+        let rays = rays.get(..occluded.len()).unwrap_or(rays);
+        if batch.scratch.len() / 2 < rays.len() {
+            // No room to sort: the batch in its own order, in place.
+            return self.slice_with::<AnyHit>(batch.width, rays, occluded);
+        }
+        self.any_hits_each(rays, batch, |i, o| {
+            if let Some(x) = occluded.get_mut(i) {
+                *x = o;
+            }
+        });
+    }
+
+    /// [`any_hits`](TriangleTree::any_hits), handing each answer to
+    /// `answer(ray index, occluded)`: for outputs of another type, as the C
+    /// API's `int32_t`s.
+    #[doc(hidden)]
+    pub fn any_hits_each(
+        &self,
+        rays: &[Ray],
+        batch: Batch<'_>,
+        mut answer: impl FnMut(usize, bool),
+    ) {
+        let (width, scratch) = (batch.width, batch.scratch);
+        let n = rays.len();
+        let (items, spare) = scratch.split_at_mut(scratch.len() / 2);
+        let mut sorted = false;
+        if let (Some(items), Ok(_)) = (items.get_mut(..n), u32::try_from(n)) {
+            let grid = MortonGrid::over_origins(rays);
+            for (i, (item, r)) in items.iter_mut().zip(rays).enumerate() {
+                *item = grid.item(r, i as u32);
+            }
+            sorted = sort_items(items, spare);
+        }
+        let none = Ray {
+            origin: [0.0; 3],
+            tmin: 0.0,
+            dir: [0.0; 3],
+            tmax: 0.0,
+        };
+        let mut chunk = [none; BLOCK];
+        let mut answers = [false; BLOCK];
+        for start in (0..n).step_by(BLOCK) {
+            let m = BLOCK.min(n - start);
+            // The `k`-th ray of this chunk: sorted, or the batch's own.
+            let at = |k: usize| match scratch.get(start + k) {
+                Some(&it) if sorted => item_index(it),
+                _ => start + k,
+            };
+            for (k, c) in chunk.iter_mut().enumerate().take(m) {
+                *c = rays.get(at(k)).copied().unwrap_or(none);
+            }
+            if let (Some(c), Some(a)) = (chunk.get(..m), answers.get_mut(..m)) {
+                self.slice_with::<AnyHit>(width, c, a);
+            }
+            for (k, &a) in answers.iter().enumerate().take(m) {
+                answer(at(k), a);
+            }
+        }
+    }
+
+    /// A batch in its own order at any width, for either query.
+    fn slice_with<Q: SliceQuery>(&self, width: PacketWidth, rays: &[Ray], out: &mut [Q::Out]) {
+        // The scalar path traces each ray alone (the packet entry points'
+        // `scalar-packets` rule).
+        let width = if cfg!(feature = "scalar-packets") {
+            PacketWidth::One
+        } else {
+            width
+        };
+        // Blocks of rays whose origins lie far apart share no cells: single
+        // rays walked in turns (`turns.rs`). Blocks hold whole packets of
+        // every width, so the others are packed as the slice is.
+        let mut memo = Q::Memo::default();
+        let turns = Q::IN_TURNS_WALK.filter(|_| {
+            IN_TURNS && (self.data_bytes() > TURNS_MIN_BYTES || !self.lines.is_empty())
+        });
+        for (rays, out) in rays.chunks(BLOCK).zip(out.chunks_mut(BLOCK)) {
+            if let Some(in_turns) = turns.filter(|_| scattered(rays, &self.bounds)) {
+                in_turns(self, rays, out);
+                continue;
+            }
+            match width {
+                PacketWidth::One => {
+                    for (o, r) in out.iter_mut().zip(rays) {
+                        *o = Q::one_after(self, r, &mut memo);
+                    }
+                }
+                PacketWidth::Four => dispatch(Slice4::<Q>(self, rays, out)),
+                // 16 lanes only where they are one register (`PacketWidth::Sixteen`).
+                PacketWidth::Sixteen if sixteen_lanes() => {
+                    dispatch(Slice16::<Q>(self, rays, out));
+                }
+                PacketWidth::Eight | PacketWidth::Sixteen => dispatch(Slice8::<Q>(self, rays, out)),
+            }
+        }
+    }
+
+    /// Whether consecutive rays of `rays` start far apart in this tree's
+    /// scene: the test the batch calls make on each block of 256
+    /// rays before choosing a walk (random rays and shadow rays from
+    /// random surface points are scattered; camera rays and rays in pixel
+    /// order are not). A caller holding a large batch of scattered rays
+    /// gains by tracing them in the order of their origins
+    /// (`kdray_tools::trace` does).
+    #[must_use]
+    pub fn rays_scattered(&self, rays: &[Ray]) -> bool {
+        scattered(rays, &self.bounds)
+    }
+
+    /// The bytes a walk reads from: nodes, primitive indices, triangles.
+    pub(super) fn data_bytes(&self) -> usize {
+        core::mem::size_of_val(self.nodes)
+            + core::mem::size_of_val(self.prims)
+            + core::mem::size_of_val(self.triangles)
+    }
+}
+
+/// The rays the batch calls choose a path for at a time (a multiple
+/// of every packet width).
+const BLOCK: usize = 256;
+
+/// Whether scattered rays are walked in turns: where the walks' misses can
+/// overlap (an out-of-order core with caches and a prefetch, x86-64 here).
+/// Elsewhere (a microcontroller) turns would only add work and 6 KiB of
+/// stack for their eight walks.
+const IN_TURNS: bool = cfg!(target_arch = "x86_64");
+
+/// Trees of at most this many bytes (nodes, indices and triangles) walk
+/// scattered rays one at a time: 1 MiB, the L2 cache of the x86-64 cores
+/// measured. A tree that stays in cache has no misses for turns to
+/// overlap, only their hand-over to pay: the teapot (455 KB) ran random
+/// rays at 0.71x in turns, where the bunny (4.7 MB) ran them at 1.08-1.45x
+/// (one core, interleaved, plain build). Sponza (6.0 MB) still loses on
+/// random rays (0.76-0.94x against no turns, three interleaved rounds):
+/// they end after 8.3 steps, in the top of the tree, which stays cached;
+/// the bunny's take 11.3 and gain 1.05-1.14x. Under `cfg(fuzzing)` every tree qualifies, so the fuzz
+/// targets' small trees reach the walk in turns.
+pub(super) const TURNS_MIN_BYTES: usize = if cfg!(fuzzing) { 0 } else { 1 << 20 };
+
+/// Whether consecutive rays of `rays` start far apart: on average more
+/// than 1/16 of the scene's largest extent (largest coordinate difference),
+/// over the first two rays of every eight (every pair cost camera rays 2%).
+/// Camera rays (one origin) and shadow rays in pixel or Morton order are
+/// not; random rays and shadow rays from random surface points are, and
+/// closest-hit walks of such rays wait on memory, which rays walked in
+/// turns overlap (bunny, one core: random rays ~1.1-1.35x). Camera rays in turns
+/// ran 2.8x slower and Morton-ordered shadow rays 2.3x (a turn costs
+/// ~80 instructions and the interleaved branches predict worse), hence
+/// the test.
+pub(super) fn scattered(rays: &[Ray], bounds: &Bounds) -> bool {
+    let extent = (0..3).fold(0.0f32, |e, a| e.max(bounds.max[a] - bounds.min[a]));
+    let (mut gaps, mut pairs) = (0.0f32, 0u32);
+    for c in rays.chunks(8) {
+        if let [a, b, ..] = c {
+            gaps += (0..3).fold(0.0f32, |d, k| d.max((a.origin[k] - b.origin[k]).abs()));
+            pairs += 1;
+        }
+    }
+    gaps > extent * pairs as f32 / 16.0
+}
+
+/// The batch calls' jobs: a slice of rays in packets of a width.
+macro_rules! slice_jobs {
+    ($($job:ident, $n:literal, $x:ident;)*) => {$(
+        #[doc = concat!("A slice of rays in packets of ", $n, ".")]
+        struct $job<'t, 'a, 'o, Q: SliceQuery>(&'t TriangleTree<'a>, &'t [Ray], &'o mut [Q::Out]);
+
+        impl<Q: SliceQuery> Job for $job<'_, '_, '_, Q> {
+            type Out = ();
+            #[inline(always)]
+            fn run<L: Level>(self) {
+                let $job(tree, rays, out) = self;
+                in_packets::<L::$x, Q, $n>(tree, rays, out);
+            }
+        }
+    )*};
+}
+
+slice_jobs! {
+    Slice4, 4, X4;
+    Slice8, 8, X8;
+    Slice16, 16, X16;
+}
+
+/// A query the batch calls run, as a single ray and over lanes.
+trait SliceQuery {
+    /// One ray's answer.
+    type Out: Copy;
+    /// What one ray's query leaves for the next in a coherent slice.
+    type Memo: Default;
+    fn one(tree: &TriangleTree<'_>, ray: &Ray) -> Self::Out;
+    /// One ray's answer, after the ray before it in a coherent slice
+    /// (by default, [`SliceQuery::one`]).
+    #[inline(always)]
+    fn one_after(tree: &TriangleTree<'_>, ray: &Ray, _: &mut Self::Memo) -> Self::Out {
+        Self::one(tree, ray)
+    }
+    /// Each ray's answer, single rays walked in turns (`turns.rs`), for
+    /// a query whose scattered rays take turns.
+    const IN_TURNS_WALK: Option<InTurns<Self::Out>>;
+    fn lanes<V: Lanes<N>, const N: usize>(
+        tree: &TriangleTree<'_>,
+        lr: &LaneRays<V, N>,
+        stack: &mut LaneStack<V>,
+    ) -> [Self::Out; N];
+}
+
+/// A slice of rays walked in turns, answers into the second slice.
+type InTurns<Out> = fn(&TriangleTree<'_>, &[Ray], &mut [Out]);
+
+/// The closest hit.
+struct ClosestHit;
+
+impl SliceQuery for ClosestHit {
+    type Out = Hit;
+    type Memo = ();
+    #[inline(always)]
+    fn one(tree: &TriangleTree<'_>, ray: &Ray) -> Hit {
+        tree.closest_hit(ray)
+    }
+    const IN_TURNS_WALK: Option<InTurns<Hit>> =
+        Some(|tree, rays, out| tree.closest_hits_scattered(rays, out));
+    #[inline(always)]
+    fn lanes<V: Lanes<N>, const N: usize>(
+        tree: &TriangleTree<'_>,
+        lr: &LaneRays<V, N>,
+        stack: &mut LaneStack<V>,
+    ) -> [Hit; N] {
+        tree.closest_lanes(lr, stack)
+    }
+}
+
+/// Any hit (occlusion).
+struct AnyHit;
+
+/// The triangle that occluded the last ray ([`MISS`] before any did).
+struct Occluder(u32);
+
+impl Default for Occluder {
+    fn default() -> Occluder {
+        Occluder(MISS)
+    }
+}
+
+impl SliceQuery for AnyHit {
+    type Out = bool;
+    /// The last occluder (an occluder cache of one triangle), kept by
+    /// single rays. Tried for packets too (the last occluder tested on
+    /// every lane before the walk, the walk naming its occluder): 8- and
+    /// 16-wide Morton-ordered shadow packets ran 0.6-0.94x, the lane test
+    /// and the walk's extra state costing more than the rare packet whose
+    /// lanes it all answered.
+    type Memo = Occluder;
+    #[inline(always)]
+    fn one(tree: &TriangleTree<'_>, ray: &Ray) -> bool {
+        tree.any_hit(ray)
+    }
+    #[inline(always)]
+    fn one_after(tree: &TriangleTree<'_>, ray: &Ray, memo: &mut Occluder) -> bool {
+        tree.any_hit_remembering(ray, &mut memo.0)
+    }
+    /// No turns: walked back to front (`walk.rs`, `Visit::FAR_FIRST`),
+    /// shadow rays start from the light's end, which every ray of a light
+    /// shares and the cache keeps. Turns against none, plain build, one
+    /// core, file-order shadow rays, two runs: bunny 0.94-1.10x single,
+    /// 0.94-1.0x 8-wide (the noise), sponza 0.66-0.68x / 0.53-0.61x
+    /// (front to back, turns had paid 1.46x on the bunny, 1.0x on sponza).
+    const IN_TURNS_WALK: Option<InTurns<bool>> = None;
+    #[inline(always)]
+    fn lanes<V: Lanes<N>, const N: usize>(
+        tree: &TriangleTree<'_>,
+        lr: &LaneRays<V, N>,
+        stack: &mut LaneStack<V>,
+    ) -> [bool; N] {
+        lane_bools(tree.any_lanes(lr, stack))
+    }
+}
+
+/// Traces `rays` in packets of `N` consecutive rays (the last one partly
+/// inactive) and writes each lane's answer to `out`; packets whose rays
+/// disagree on a direction sign go ray by ray (`Q::one`). Out of line:
+/// one function per width, query and level (its `Job` wrapper), each with
+/// its own registers (with a third width inlined into `slice_with`, the
+/// 8-wide walk lost ~5%).
+#[inline(always)]
+fn in_packets<V: Lanes<N>, Q: SliceQuery, const N: usize>(
+    tree: &TriangleTree<'_>,
+    rays: &[Ray],
+    out: &mut [Q::Out],
+) {
+    let mut stack = LaneStack::new(V::splat(0.0));
+    for (rs, os) in rays.chunks(N).zip(out.chunks_mut(N)) {
+        let cols = LaneRays::<V, N>::columns(rs);
+        if !LaneRays::signs_agree(&cols) {
+            for (o, r) in os.iter_mut().zip(rs) {
+                *o = Q::one(tree, r);
+            }
+            continue;
+        }
+        let answers = Q::lanes(
+            tree,
+            &LaneRays::from_rays(&cols, rs, &tree.bounds),
+            &mut stack,
+        );
+        for (o, a) in os.iter_mut().zip(answers).take(rs.len()) {
+            *o = a;
+        }
+    }
+}

@@ -464,3 +464,53 @@ fn gltf_points_and_lines_are_reported() {
     let e = error("points.gltf", only.as_bytes());
     assert!(e.contains("no triangles"), "{e}");
 }
+
+#[test]
+fn gltf_buffers_must_be_regular_files_of_their_byte_length() {
+    use kdray_tools::mesh::{load_with, LoadOptions};
+    let (bin, pos_len) = gltf_bin();
+    let dir = tmp("special");
+    std::fs::create_dir_all(dir.join("folder.bin")).unwrap();
+    let load_uri = |uri: &str, byte_len: usize, allow: bool| {
+        let p = dir.join("special.gltf");
+        std::fs::write(&p, gltf_json(Some(uri), byte_len, pos_len)).unwrap();
+        let options = LoadOptions {
+            allow_outside_uris: allow,
+        };
+        // On a thread: a loader that blocks on a FIFO fails here, not hangs.
+        let (send, recv) = std::sync::mpsc::channel();
+        std::thread::spawn(move || send.send(load_with(&p, &options).map(|m| m.triangles)));
+        recv.recv_timeout(std::time::Duration::from_secs(20))
+            .unwrap_or_else(|_| panic!("{uri}: the loader hangs"))
+    };
+    let refused = |uri: &str, byte_len: usize, allow: bool, what: &str| {
+        let e = load_uri(uri, byte_len, allow).expect_err(uri).to_string();
+        eprintln!("{e}");
+        assert!(
+            e.contains("special.gltf") && e.contains("buffer 0") && e.contains(uri) && e.contains(what),
+            "{uri}: {e}"
+        );
+    };
+    refused("folder.bin", bin.len(), false, "is a folder, not a regular file");
+    #[cfg(unix)]
+    {
+        let fifo = dir.join("pipe.bin");
+        let _ = std::fs::remove_file(&fifo);
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if made.is_ok_and(|s| s.success()) {
+            refused("pipe.bin", bin.len(), false, "is a FIFO, not a regular file");
+        }
+        if std::path::Path::new("/dev/zero").exists() {
+            refused("/dev/zero", bin.len(), true, "is a character device");
+        }
+    }
+    // A file longer than its byteLength: refused after byteLength + 1 bytes.
+    let mut long = bin.clone();
+    long.extend([0u8; 100]);
+    std::fs::write(dir.join("long.bin"), &long).unwrap();
+    refused("long.bin", bin.len(), false, "more than the buffer's byteLength");
+    // Exactly byteLength, and shorter (the old rule), still as before.
+    std::fs::write(dir.join("exact.bin"), &bin).unwrap();
+    assert_eq!(load_uri("exact.bin", bin.len(), false).unwrap(), gltf_expected());
+    refused("exact.bin", bin.len() + 4, false, "declares byteLength");
+}

@@ -269,7 +269,8 @@ fn load_buffer(
         }
         gltf::buffer::Source::Uri(uri) => {
             let file = buffer_file(path, uri, options.allow_outside_uris).map_err(&err)?;
-            std::fs::read(&file).map_err(|e| err(format!("cannot read {}: {e}", file.display())))?
+            read_buffer_file(&file, b.length())
+                .map_err(|e| err(format!("URI {uri:?} ({}): {e}", file.display())))?
         }
     };
     if data.len() < b.length() {
@@ -280,6 +281,74 @@ fn load_buffer(
         )));
     }
     Ok(data)
+}
+
+/// At most `byte_length` bytes of a buffer's file. Only a regular file is
+/// read: it is opened without blocking (a FIFO with no writer would wait
+/// forever) and its type checked on the open file, so a FIFO, a device
+/// (`/dev/zero` never ends) or a folder is refused by name. At most
+/// `byte_length + 1` bytes are read: a longer file is refused, as a PLY
+/// with data after its last element is.
+fn read_buffer_file(file: &Path, byte_length: usize) -> Result<Vec<u8>, String> {
+    use std::io::Read as _;
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::custom_flags(&mut options, libc::O_NONBLOCK);
+    let f = options.open(file).map_err(|e| format!("cannot read: {e}"))?;
+    let meta = f.metadata().map_err(|e| format!("cannot read: {e}"))?;
+    if !meta.is_file() {
+        return Err(format!(
+            "is {}, not a regular file: a buffer must be a file",
+            file_type_name(&meta.file_type())
+        ));
+    }
+    let limit = byte_length.saturating_add(1);
+    let mut data = Vec::new();
+    let expect = usize::try_from(meta.len()).map_or(limit, |n| n.min(limit));
+    data.try_reserve_exact(expect)
+        .map_err(|_| format!("no memory for its {expect} bytes"))?;
+    f.take(limit as u64)
+        .read_to_end(&mut data)
+        .map_err(|e| format!("cannot read: {e}"))?;
+    if data.len() > byte_length {
+        return Err(format!(
+            "the file holds {} bytes, more than the buffer's byteLength {byte_length}",
+            meta.len()
+        ));
+    }
+    if data.len() < byte_length {
+        return Err(format!(
+            "the file holds {} bytes but the buffer declares byteLength {byte_length}",
+            data.len()
+        ));
+    }
+    Ok(data)
+}
+
+/// "a folder", "a FIFO", ... for a file that is not a regular file.
+fn file_type_name(t: &std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt as _;
+        if t.is_fifo() {
+            return "a FIFO";
+        }
+        if t.is_char_device() {
+            return "a character device";
+        }
+        if t.is_block_device() {
+            return "a block device";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    if t.is_dir() {
+        "a folder"
+    } else {
+        "another kind of file"
+    }
 }
 
 /// Appends the triangles of one primitive, transformed by `m`.

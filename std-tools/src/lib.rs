@@ -18,6 +18,7 @@ pub mod camera;
 pub mod deforming;
 pub mod instances;
 pub mod io;
+pub mod memory;
 pub mod mesh;
 pub mod morton;
 pub mod points;

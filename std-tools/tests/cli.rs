@@ -30,6 +30,12 @@ fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
 
+/// The one JSON object `--json` printed.
+fn json(o: &Output) -> serde_json::Value {
+    serde_json::from_slice(&o.stdout)
+        .unwrap_or_else(|e| panic!("not JSON ({e}): {}{}", stdout(o), stderr(o)))
+}
+
 const QUAD_OBJ: &[u8] =
     b"# two quads\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nf 1 2 3 4\nf 1 2 5\n";
 
@@ -46,24 +52,21 @@ fn build_info_trace_round_trip() {
     let tree = tmp("quad.kdt").display().to_string();
     let o = kdray(&["build", &obj, "-o", &tree, "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let json = stdout(&o);
+    let j = json(&o);
     for key in [
-        "\"build_ms\"",
-        "\"nodes\"",
-        "\"leaves\"",
-        "\"max_depth\"",
-        "\"sah_cost\"",
-        "\"bytes\"",
-        "\"triangles\": 3",
+        "build_ms",
+        "nodes",
+        "leaves",
+        "max_depth",
+        "sah_cost",
+        "bytes",
     ] {
-        assert!(json.contains(key), "{key} missing from {json}");
+        assert!(j[key].is_number(), "{key} missing from {j}");
     }
+    assert_eq!(j["triangles"], 3, "{j}");
     let o = kdray(&["info", &tree, "--json"]);
-    assert!(
-        o.status.success() && stdout(&o).contains("\"triangles\": 3"),
-        "{}",
-        stderr(&o)
-    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(json(&o)["triangles"], 3);
 
     // Down onto the quad at (0.25, 0.5): the fan (v0,v1,v2),(v0,v2,v3) puts
     // it in triangle 1; a ray off to the side misses.
@@ -84,7 +87,7 @@ fn build_info_trace_round_trip() {
         "--json",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stdout(&o).contains("\"mrays_per_s\""));
+    assert!(json(&o)["mrays_per_s"].is_number());
     let h = std::fs::read(&hits).unwrap();
     assert_eq!(h.len(), 32);
     let word = |i: usize| u32::from_le_bytes(h[i * 4..i * 4 + 4].try_into().unwrap());
@@ -157,8 +160,7 @@ fn trace_packets_match_single_rays() {
             }
             let o = kdray(&args);
             assert!(o.status.success(), "{}", stderr(&o));
-            let packet_json = format!("\"packet\": {packet}");
-            assert!(stdout(&o).contains(&packet_json), "{}", stdout(&o));
+            assert_eq!(json(&o)["packet"].to_string(), packet, "{}", stdout(&o));
             let h = std::fs::read(&hits).unwrap();
             assert_eq!(h.len(), 2101 * 16);
             match &reference {
@@ -216,11 +218,7 @@ fn trace_sorts_scattered_shadow_rays_and_answers_in_file_order() {
         ]);
         assert!(o.status.success(), "{}", stderr(&o));
         let how = if order == "auto" { "morton" } else { "given" };
-        assert!(
-            stdout(&o).contains(&format!("\"order\": \"{how}\"")),
-            "{}",
-            stdout(&o)
-        );
+        assert_eq!(json(&o)["order"], how, "{}", stdout(&o));
         files.push(std::fs::read(&hits).unwrap());
     }
     assert!(files[0] == files[1], "--order auto and given differ");
@@ -864,15 +862,12 @@ fn json_outputs_say_everything() {
     let tree = tmp("json.kdt").display().to_string();
     assert!(kdray(&["build", &obj, "-o", &tree]).status.success());
     let o = kdray(&["info", &tree, "--json"]);
-    assert!(stdout(&o).contains("\"valid\": true"), "{}", stdout(&o));
+    assert_eq!(json(&o)["valid"], true, "{}", stdout(&o));
     let junk = write(&tmp("json-junk.kdt"), b"junk");
     let o = kdray(&["info", &junk, "--json"]);
     assert_eq!(o.status.code(), Some(1));
-    let out = stdout(&o);
-    assert!(
-        out.contains("\"valid\": false") && out.contains("\"error\": \""),
-        "{out}"
-    );
+    let j = json(&o);
+    assert!(j["valid"] == false && j["error"].is_string(), "{j}");
     let rays = tmp("json.rays").display().to_string();
     assert!(
         kdray(&["rays", &obj, "-o", &rays, "--width", "8", "--height", "8"])
@@ -881,10 +876,10 @@ fn json_outputs_say_everything() {
     );
     let hits = tmp("json.hits").display().to_string();
     let o = kdray(&["trace", &tree, &rays, "-o", &hits, "--counts", "--json"]);
-    let out = stdout(&o);
+    let j = json(&o);
     assert!(
-        out.contains("\"nodes_per_ray\"") && out.contains("\"triangles_per_ray\""),
-        "{out}"
+        j["nodes_per_ray"].is_number() && j["triangles_per_ray"].is_number(),
+        "{j}"
     );
 }
 
@@ -965,4 +960,169 @@ fn sigint_ignored() -> bool {
             u64::from_str_radix(mask.trim(), 16).ok()
         })
         .is_some_and(|mask| mask & (1 << 1) != 0)
+}
+
+/// `kdray args` with its address space limited to `kib` KiB (`ulimit -v`).
+#[cfg(unix)]
+fn kdray_limited(kib: u64, args: &[&str]) -> Output {
+    Command::new("sh")
+        .arg("-c")
+        .arg(format!("ulimit -v {kib} && exec \"$0\" \"$@\""))
+        .arg(env!("CARGO_BIN_EXE_kdray"))
+        .args(args)
+        .output()
+        .expect("run kdray")
+}
+
+/// A binary PLY grid of `n` x `n` vertices, 2 (n-1)^2 triangles.
+fn grid_ply(n: u32) -> Vec<u8> {
+    let mut b = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        n * n,
+        2 * (n - 1) * (n - 1)
+    )
+    .into_bytes();
+    for i in 0..n {
+        for j in 0..n {
+            for c in [i as f32, j as f32, ((i * j) % 7) as f32] {
+                b.extend(c.to_le_bytes());
+            }
+        }
+    }
+    for i in 0..n - 1 {
+        for j in 0..n - 1 {
+            let a = i * n + j;
+            for t in [[a, a + 1, a + n], [a + 1, a + n + 1, a + n]] {
+                b.push(3);
+                t.iter().for_each(|v| b.extend(v.to_le_bytes()));
+            }
+        }
+    }
+    b
+}
+
+/// Memory that runs out (under `ulimit -v`) is an error naming what did
+/// not fit, status 1: never Rust's abort (134, "memory allocation of N
+/// bytes failed").
+#[cfg(unix)]
+#[test]
+fn memory_that_runs_out_is_an_error_not_an_abort() {
+    let dir = folder("oom");
+    let obj = write(&dir.join("q.obj"), QUAD_OBJ);
+    let out = dir.join("out.rays").display().to_string();
+    let big = ["--width", "16384", "--height", "16384"];
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            [&["rays", &obj, "-o", &out][..], &big].concat(),
+            "camera rays",
+        ),
+        (
+            [
+                &["rays", &obj, "-o", &out, "--kind", "camera-tiled"][..],
+                &big,
+            ]
+            .concat(),
+            "pixel coordinates",
+        ),
+        (
+            [&["rays", &obj, "-o", &out, "--kind", "shadow"][..], &big].concat(),
+            "camera rays",
+        ),
+        (
+            vec![
+                "rays",
+                &obj,
+                "-o",
+                &out,
+                "--kind",
+                "random",
+                "--count",
+                "268435456",
+            ],
+            "random rays",
+        ),
+    ];
+    for (args, what) in cases {
+        let o = kdray_limited(1_000_000, &args);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
+        assert!(
+            e.contains("out of memory") && e.contains(what),
+            "{args:?}: {e}"
+        );
+        assert!(!Path::new(&out).exists(), "{args:?}");
+    }
+    // A mesh whose build needs more than the limit (720,000 triangles,
+    // about 700 MB): whichever allocation fails, the same clean error.
+    let ply = dir.join("grid.ply");
+    std::fs::write(&ply, grid_ply(601)).unwrap();
+    let tree = dir.join("grid.kdt").display().to_string();
+    let o = kdray_limited(500_000, &["build", &ply.display().to_string(), "-o", &tree]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("kdray: error: out of memory"), "{e}");
+    assert!(!e.contains("memory allocation of"), "{e}");
+    assert!(temporaries(&dir).is_empty(), "{:?}", temporaries(&dir));
+}
+
+/// `trace --first-hits K` writes K records a ray a part at a time: K x
+/// rays records (1.3 GB here) need not fit in memory (1 GB here).
+#[cfg(unix)]
+#[test]
+fn first_hits_stream_past_the_memory_limit() {
+    let dir = folder("stream");
+    let obj = write(&dir.join("q.obj"), QUAD_OBJ);
+    let tree = dir.join("q.kdt").display().to_string();
+    assert!(kdray(&["build", &obj, "-o", &tree]).status.success());
+    let n = 80_000;
+    let rays: Vec<[f32; 8]> = (0..n)
+        .map(|i| {
+            let x = ((i % 400) as f32 + 0.5) / 400.0;
+            [x, 0.3, 2.0, 0.0, 0.0, 0.0, -1.0, f32::INFINITY]
+        })
+        .collect();
+    let rays = write(&dir.join("many.rays"), &ray_bytes(&rays));
+    let o = kdray_limited(
+        1_000_000,
+        &[
+            "trace",
+            &tree,
+            &rays,
+            "-o",
+            "/dev/null",
+            "--first-hits",
+            "1024",
+            "--json",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = json(&o);
+    assert_eq!(j["rays"], n);
+    assert_eq!(j["first_hits"], 1024);
+    assert_eq!(j["hits"], n, "every ray hits the quad");
+    // The same records as in one part: a small run compared record by record.
+    let few = write(
+        &dir.join("few.rays"),
+        &std::fs::read(&rays).unwrap()[..32 * 3000],
+    );
+    let (a, b) = (dir.join("a.hits"), dir.join("b.hits"));
+    let run = |k: &str, out: &Path| {
+        let o = kdray(&[
+            "trace",
+            &tree,
+            &few,
+            "-o",
+            &out.display().to_string(),
+            "--first-hits",
+            k,
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        std::fs::read(out).unwrap()
+    };
+    let one = run("1", &a);
+    let many = run("1024", &b);
+    assert_eq!(many.len(), 3000 * 1024 * 16);
+    for (r, first) in one.chunks(16).enumerate() {
+        assert_eq!(first, &many[r * 1024 * 16..r * 1024 * 16 + 16], "ray {r}");
+    }
 }

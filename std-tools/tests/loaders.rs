@@ -487,18 +487,31 @@ fn gltf_buffers_must_be_regular_files_of_their_byte_length() {
         let e = load_uri(uri, byte_len, allow).expect_err(uri).to_string();
         eprintln!("{e}");
         assert!(
-            e.contains("special.gltf") && e.contains("buffer 0") && e.contains(uri) && e.contains(what),
+            e.contains("special.gltf")
+                && e.contains("buffer 0")
+                && e.contains(uri)
+                && e.contains(what),
             "{uri}: {e}"
         );
     };
-    refused("folder.bin", bin.len(), false, "is a folder, not a regular file");
+    refused(
+        "folder.bin",
+        bin.len(),
+        false,
+        "is a folder, not a regular file",
+    );
     #[cfg(unix)]
     {
         let fifo = dir.join("pipe.bin");
         let _ = std::fs::remove_file(&fifo);
         let made = std::process::Command::new("mkfifo").arg(&fifo).status();
         if made.is_ok_and(|s| s.success()) {
-            refused("pipe.bin", bin.len(), false, "is a FIFO, not a regular file");
+            refused(
+                "pipe.bin",
+                bin.len(),
+                false,
+                "is a FIFO, not a regular file",
+            );
         }
         if std::path::Path::new("/dev/zero").exists() {
             refused("/dev/zero", bin.len(), true, "is a character device");
@@ -508,9 +521,17 @@ fn gltf_buffers_must_be_regular_files_of_their_byte_length() {
     let mut long = bin.clone();
     long.extend([0u8; 100]);
     std::fs::write(dir.join("long.bin"), &long).unwrap();
-    refused("long.bin", bin.len(), false, "more than the buffer's byteLength");
+    refused(
+        "long.bin",
+        bin.len(),
+        false,
+        "more than the buffer's byteLength",
+    );
     // Exactly byteLength, and shorter (the old rule), still as before.
     std::fs::write(dir.join("exact.bin"), &bin).unwrap();
-    assert_eq!(load_uri("exact.bin", bin.len(), false).unwrap(), gltf_expected());
+    assert_eq!(
+        load_uri("exact.bin", bin.len(), false).unwrap(),
+        gltf_expected()
+    );
     refused("exact.bin", bin.len() + 4, false, "declares byteLength");
 }

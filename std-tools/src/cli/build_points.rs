@@ -99,14 +99,14 @@ impl ShapedCommand for Args {
         io::write_bytes(&a.output, blob.as_bytes())?;
         if a.json {
             let j = JsonObject::default()
-                .num("points", points.len() as f64)
-                .num("dim", D as f64)
-                .str("scalar", S::NAME)
-                .num("nodes", built.nodes.len() as f64)
-                .num("max_depth", f64::from(built.max_depth))
-                .num("bytes", blob.as_bytes().len() as f64)
-                .num("build_ms", build_ms)
-                .str(
+                .with("points", points.len())
+                .with("dim", D)
+                .with("scalar", S::NAME)
+                .with("nodes", built.nodes.len())
+                .with("max_depth", built.max_depth)
+                .with("bytes", blob.as_bytes().len())
+                .with("build_ms", build_ms)
+                .with(
                     "timing",
                     "build_ms excludes reading the points and writing the blob",
                 );

@@ -99,16 +99,16 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     io::write_bytes(&a.output, blob.as_bytes())?;
     if a.json {
         let j = JsonObject::default()
-            .str("mesh", &a.mesh.display().to_string())
-            .str("output", &a.output.display().to_string())
-            .str("builder", kind.name())
-            .num("load_ms", load_ms)
-            .num("build_ms", build_ms)
-            .num(
+            .with("mesh", a.mesh.display().to_string())
+            .with("output", a.output.display().to_string())
+            .with("builder", kind.name())
+            .with("load_ms", load_ms)
+            .with("build_ms", build_ms)
+            .with(
                 "peak_build_bytes_per_triangle",
                 monitor.peak_bytes() as f64 / tris.len().max(1) as f64,
             )
-            .str(
+            .with(
                 "timing",
                 "build_ms excludes reading and parsing the mesh and writing the blob",
             );
@@ -151,15 +151,15 @@ fn build_instanced(a: &Args, kind: BuilderKind, params: &BuildParams) -> CmdResu
     let tris: usize = g.meshes.iter().map(Vec::len).sum();
     if a.json {
         let j = JsonObject::default()
-            .str("mesh", &a.mesh.display().to_string())
-            .str("output", &a.output.display().to_string())
-            .str("kind", "scene")
-            .num("load_ms", load_ms)
-            .num("build_ms", build_ms)
-            .num("meshes", g.meshes.len() as f64)
-            .num("mesh_triangles", tris as f64)
-            .num("instances", parts.instances.len() as f64)
-            .num("bytes", blob.as_bytes().len() as f64);
+            .with("mesh", a.mesh.display().to_string())
+            .with("output", a.output.display().to_string())
+            .with("kind", "scene")
+            .with("load_ms", load_ms)
+            .with("build_ms", build_ms)
+            .with("meshes", g.meshes.len())
+            .with("mesh_triangles", tris)
+            .with("instances", parts.instances.len())
+            .with("bytes", blob.as_bytes().len());
         say!("{}", j.finish());
     } else {
         say!(

@@ -42,17 +42,17 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             .sum();
         if a.json {
             let j = JsonObject::default()
-                .str("tree", &a.tree.display().to_string())
-                .bool("valid", true)
-                .str("kind", "scene")
-                .num("validate_ms", validate_ms)
-                .num("bytes", blob.as_bytes().len() as f64)
-                .num("instances", scene.instances().len() as f64)
-                .num("meshes", f64::from(scene.mesh_count()))
-                .num("mesh_triangles", mesh_tris.iter().sum::<usize>() as f64)
-                .num("flattened_triangles", flat as f64)
-                .num("top_level_nodes", scene.nodes().len() as f64)
-                .num("top_level_depth", f64::from(scene.max_depth()));
+                .with("tree", a.tree.display().to_string())
+                .with("valid", true)
+                .with("kind", "scene")
+                .with("validate_ms", validate_ms)
+                .with("bytes", blob.as_bytes().len())
+                .with("instances", scene.instances().len())
+                .with("meshes", scene.mesh_count())
+                .with("mesh_triangles", mesh_tris.iter().sum::<usize>())
+                .with("flattened_triangles", flat)
+                .with("top_level_nodes", scene.nodes().len())
+                .with("top_level_depth", scene.max_depth());
             say!("{}", j.finish());
         } else {
             say!(
@@ -83,9 +83,9 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let stats = tree_stats(&tree, CostModel::from_params(&BuildParams::default()));
     if a.json {
         let j = JsonObject::default()
-            .str("tree", &a.tree.display().to_string())
-            .bool("valid", true)
-            .num("validate_ms", validate_ms);
+            .with("tree", a.tree.display().to_string())
+            .with("valid", true)
+            .with("validate_ms", validate_ms);
         say!("{}", stats_json(j, &stats).finish());
     } else {
         say!(
@@ -102,9 +102,9 @@ pub(crate) fn run(a: &Args) -> CmdResult {
 fn fail(a: &Args, message: String) -> CmdResult {
     if a.json {
         let j = JsonObject::default()
-            .str("tree", &a.tree.display().to_string())
-            .bool("valid", false)
-            .str("error", &message);
+            .with("tree", a.tree.display().to_string())
+            .with("valid", false)
+            .with("error", &message);
         say!("{}", j.finish());
     }
     Err(message.into())

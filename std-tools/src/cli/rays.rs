@@ -6,9 +6,9 @@ use super::render::{tree_blob, View};
 use super::trace::parse_width;
 use super::{CmdResult, MeshArgs, MAX_PIXELS};
 use kdray_kernel::{Hit, PacketWidth, Ray};
-use kdray_tools::camera::random_rays;
-use kdray_tools::io;
-use kdray_tools::render::{shadow_ray, tile_size, tiled_pixels, RenderParams};
+use kdray_tools::camera::random_ray_iter;
+use kdray_tools::render::{shadow_ray, tile_size, tiled_pixels_into, RenderParams};
+use kdray_tools::{io, memory};
 use std::path::PathBuf;
 
 /// Which rays `kdray rays` makes.
@@ -72,23 +72,38 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let scene = tree.bounds();
     let camera = a.view.camera(&scene);
     let (w, h) = (a.view.width, a.view.height);
+    // Every buffer is reserved before it is filled: an image or count
+    // past the memory there is gets an error naming it, not an abort.
+    let pixels = w as usize * h as usize;
     let rays: Vec<Ray> = match a.kind {
-        Kind::Camera => camera.rays(w, h),
-        Kind::CameraTiled => tiled_pixels(w, h, tile_size(a.packet))
-            .into_iter()
-            .map(|[x, y]| camera.ray(x, y, w, h))
-            .collect(),
-        Kind::Random => random_rays(&scene, a.count, a.seed),
+        Kind::Camera => memory::collected(pixels, camera.ray_iter(w, h), "camera rays")?,
+        Kind::CameraTiled => {
+            let mut order = memory::with_capacity(pixels, "pixel coordinates")?;
+            tiled_pixels_into(w, h, tile_size(a.packet), &mut order);
+            let rays = order.iter().map(|&[x, y]| camera.ray(x, y, w, h));
+            memory::collected(pixels, rays, "tiled camera rays")?
+        }
+        Kind::Random => memory::collected(
+            a.count,
+            random_ray_iter(&scene, a.count, a.seed),
+            "random rays",
+        )?,
         Kind::Shadow => {
             let params = RenderParams::new(camera, w, h);
-            let primary = camera.rays(w, h);
-            let mut hits = vec![Hit::MISS; primary.len()];
-            tree.closest_hits_with(PacketWidth::One, &primary, &mut hits);
-            primary
-                .iter()
-                .zip(&hits)
-                .filter_map(|(r, hit)| shadow_ray(tree.triangles(), r, hit, &params))
-                .collect()
+            let mut rays = memory::collected(pixels, camera.ray_iter(w, h), "camera rays")?;
+            let mut hits = memory::filled(pixels, Hit::MISS, "camera hits")?;
+            tree.closest_hits_with(PacketWidth::One, &rays, &mut hits);
+            // Each shadow ray overwrites a camera ray already used (there
+            // are at most as many), so no third buffer is needed.
+            let mut kept = 0;
+            for i in 0..rays.len() {
+                if let Some(s) = shadow_ray(tree.triangles(), &rays[i], &hits[i], &params) {
+                    rays[kept] = s;
+                    kept += 1;
+                }
+            }
+            rays.truncate(kept);
+            rays
         }
     };
     io::write_records(&a.output, &rays)?;

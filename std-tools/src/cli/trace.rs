@@ -5,8 +5,9 @@ use super::{plural, thread_pool, CmdResult};
 use kdray_kernel::{Hit, Ray, Treelet};
 use kdray_tools::blob::Blob;
 use kdray_tools::instances::{first_hits_scene, is_scene_blob, scene_offsets, trace_scene};
-use kdray_tools::io;
 use kdray_tools::trace::{first_hits_into, trace_into, Order, PacketWidth, Query};
+use kdray_tools::{io, memory};
+use std::io::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -83,11 +84,11 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         .map_err(|e| format!("{}: invalid tree blob: {e}", a.tree.display()))?;
     let rays: Vec<Ray> = io::read_records(&a.rays, "ray")?;
     if let Some(k) = a.first_hits {
-        return trace_first_hits(a, &pool, rays.len(), k, |hits| {
-            first_hits_into(&tree, &rays, hits, k)
+        return trace_first_hits(a, &pool, &rays, k, |r, hits| {
+            first_hits_into(&tree, r, hits, k)
         });
     }
-    let mut hits = vec![Hit::MISS; rays.len()];
+    let mut hits = memory::filled(rays.len(), Hit::MISS, "hit records")?;
     let query = if a.any_hit {
         Query::Any
     } else {
@@ -125,22 +126,24 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let mrays = rays.len() as f64 / seconds.max(1e-12) / 1e6;
     if a.json {
         let mut j = JsonObject::default()
-            .num("rays", rays.len() as f64)
-            .num("hits", hit_count as f64)
-            .num("threads", pool.current_num_threads() as f64)
-            .str("query", if a.any_hit { "any" } else { "closest" })
-            .num("packet", a.packet.lanes() as f64)
-            .str("order", if sorted { "morton" } else { "given" })
-            .str("isa", kdray_kernel::isa().name())
-            .num("repeat", f64::from(a.repeat))
-            .num("seconds", seconds)
-            .num("mrays_per_s", mrays)
-            .str(
+            .with("rays", rays.len())
+            .with("hits", hit_count)
+            .with("threads", pool.current_num_threads())
+            .with("query", if a.any_hit { "any" } else { "closest" })
+            .with("packet", a.packet.lanes())
+            .with("order", if sorted { "morton" } else { "given" })
+            .with("isa", kdray_kernel::isa().name())
+            .with("repeat", a.repeat)
+            .with("seconds", seconds)
+            .with("mrays_per_s", mrays)
+            .with(
                 "timing",
                 "seconds: the best pass, excluding reading the tree and rays and writing the hits",
             );
         if let Some((nodes, tris)) = per_ray {
-            j = j.num("nodes_per_ray", nodes).num("triangles_per_ray", tris);
+            j = j
+                .with("nodes_per_ray", nodes)
+                .with("triangles_per_ray", tris);
         }
         say!("{}", j.finish());
     } else {
@@ -169,13 +172,19 @@ pub(crate) fn run(a: &Args) -> CmdResult {
 /// The most records a ray `--first-hits` writes.
 const MAX_FIRST_HITS: usize = 1024;
 
-/// `kdray trace --first-hits K`: `k` records a ray.
+/// The hit records `--first-hits` holds in memory at once (16 MB): the
+/// output is written in parts of this many, so K x rays records need not
+/// fit (1024 x 1M rays would be 16 GB).
+const FIRST_HITS_PART: usize = 1 << 20;
+
+/// `kdray trace --first-hits K`: `k` records a ray, traced and written a
+/// part of the rays at a time.
 fn trace_first_hits(
     a: &Args,
     pool: &rayon::ThreadPool,
-    rays: usize,
+    rays: &[Ray],
     k: usize,
-    fill: impl Fn(&mut [Hit]) -> usize + Send + Sync,
+    fill: impl Fn(&[Ray], &mut [Hit]) -> usize + Send + Sync,
 ) -> CmdResult {
     if !(1..=MAX_FIRST_HITS).contains(&k) {
         return Err(format!("--first-hits {k}: must be 1 to {MAX_FIRST_HITS}").into());
@@ -183,33 +192,46 @@ fn trace_first_hits(
     if a.packet != PacketWidth::One {
         return Err("--first-hits traces single rays: leave --packet at 1".into());
     }
-    let slots = rays.saturating_mul(k);
-    let mut hits = Vec::new();
-    hits.try_reserve_exact(slots).map_err(|_| {
-        format!(
-            "--first-hits {k}: no memory for {slots} hit records ({} rays)",
-            rays
-        )
-    })?;
-    hits.resize(slots, Hit::MISS);
-    let mut found = 0;
-    let seconds = best_of(a.repeat, || found = pool.install(|| fill(&mut hits)));
-    io::write_records(&a.output, &hits)?;
-    let hit_rays = hits
-        .chunks(k)
-        .filter(|h| h[0].prim != kdray_kernel::MISS)
-        .count();
+    let part = (FIRST_HITS_PART / k).max(1);
+    let mut hits = memory::filled(part.min(rays.len()) * k, Hit::MISS, "first-hit records")?;
+    let mut out = io::Output::create(&a.output)?;
+    let (mut seconds, mut found, mut hit_rays) = (f64::INFINITY, 0, 0);
+    for pass in 0..a.repeat {
+        let (mut pass_seconds, mut pass_found) = (0.0, 0);
+        for r in rays.chunks(part) {
+            let h = &mut hits[..r.len() * k];
+            let t = Instant::now();
+            pass_found += pool.install(|| fill(r, h));
+            pass_seconds += t.elapsed().as_secs_f64();
+            if pass == 0 {
+                out.write_all(bytemuck::cast_slice(h))
+                    .map_err(|e| out.error(&e))?;
+                hit_rays += h
+                    .chunks(k)
+                    .filter(|h| h[0].prim != kdray_kernel::MISS)
+                    .count();
+            }
+        }
+        seconds = seconds.min(pass_seconds);
+        found = pass_found;
+    }
+    out.commit()?;
+    let rays = rays.len();
     let mrays = rays as f64 / seconds.max(1e-12) / 1e6;
     if a.json {
         let j = JsonObject::default()
-            .num("rays", rays as f64)
-            .num("hits", hit_rays as f64)
-            .num("first_hits", k as f64)
-            .num("hits_found", found as f64)
-            .num("threads", pool.current_num_threads() as f64)
-            .num("repeat", f64::from(a.repeat))
-            .num("seconds", seconds)
-            .num("mrays_per_s", mrays);
+            .with("rays", rays)
+            .with("hits", hit_rays)
+            .with("first_hits", k)
+            .with("hits_found", found)
+            .with("threads", pool.current_num_threads())
+            .with("repeat", a.repeat)
+            .with("seconds", seconds)
+            .with("mrays_per_s", mrays)
+            .with(
+                "timing",
+                "seconds: the best pass, excluding reading the tree and rays and writing the hits",
+            );
         say!("{}", j.finish());
     } else {
         say!(
@@ -233,11 +255,11 @@ fn trace_scene_blob(a: &Args, pool: &rayon::ThreadPool, blob: &Blob) -> CmdResul
     let offsets = scene_offsets(&scene);
     let rays: Vec<Ray> = io::read_records(&a.rays, "ray")?;
     if let Some(k) = a.first_hits {
-        return trace_first_hits(a, pool, rays.len(), k, |hits| {
-            first_hits_scene(&scene, &offsets, &rays, hits, k)
+        return trace_first_hits(a, pool, &rays, k, |r, hits| {
+            first_hits_scene(&scene, &offsets, r, hits, k)
         });
     }
-    let mut hits = vec![Hit::MISS; rays.len()];
+    let mut hits = memory::filled(rays.len(), Hit::MISS, "hit records")?;
     let seconds = best_of(a.repeat, || {
         pool.install(|| trace_scene(&scene, &offsets, &rays, &mut hits, a.any_hit));
     });
@@ -246,13 +268,13 @@ fn trace_scene_blob(a: &Args, pool: &rayon::ThreadPool, blob: &Blob) -> CmdResul
     let mrays = rays.len() as f64 / seconds.max(1e-12) / 1e6;
     if a.json {
         let j = JsonObject::default()
-            .num("rays", rays.len() as f64)
-            .num("hits", hit_count as f64)
-            .num("threads", pool.current_num_threads() as f64)
-            .str("query", if a.any_hit { "any" } else { "closest" })
-            .num("instances", scene.instances().len() as f64)
-            .num("seconds", seconds)
-            .num("mrays_per_s", mrays);
+            .with("rays", rays.len())
+            .with("hits", hit_count)
+            .with("threads", pool.current_num_threads())
+            .with("query", if a.any_hit { "any" } else { "closest" })
+            .with("instances", scene.instances().len())
+            .with("seconds", seconds)
+            .with("mrays_per_s", mrays);
         say!("{}", j.finish());
     } else {
         say!(

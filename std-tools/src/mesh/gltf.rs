@@ -295,7 +295,9 @@ fn read_buffer_file(file: &Path, byte_length: usize) -> Result<Vec<u8>, String> 
     options.read(true);
     #[cfg(unix)]
     std::os::unix::fs::OpenOptionsExt::custom_flags(&mut options, libc::O_NONBLOCK);
-    let f = options.open(file).map_err(|e| format!("cannot read: {e}"))?;
+    let f = options
+        .open(file)
+        .map_err(|e| format!("cannot read: {e}"))?;
     let meta = f.metadata().map_err(|e| format!("cannot read: {e}"))?;
     if !meta.is_file() {
         return Err(format!(
@@ -304,10 +306,9 @@ fn read_buffer_file(file: &Path, byte_length: usize) -> Result<Vec<u8>, String> 
         ));
     }
     let limit = byte_length.saturating_add(1);
-    let mut data = Vec::new();
     let expect = usize::try_from(meta.len()).map_or(limit, |n| n.min(limit));
-    data.try_reserve_exact(expect)
-        .map_err(|_| format!("no memory for its {expect} bytes"))?;
+    let mut data =
+        crate::memory::with_capacity(expect, "buffer bytes").map_err(|e| e.to_string())?;
     f.take(limit as u64)
         .read_to_end(&mut data)
         .map_err(|e| format!("cannot read: {e}"))?;

@@ -137,6 +137,50 @@ pub fn check_output(path: &Path) -> Result<(), RecordFileError> {
     Ok(())
 }
 
+/// [`check_output`], and refuses an output that is one of `inputs`: the
+/// same file, by device and inode where the platform has them (so also
+/// through a symlink or a hard link), else by canonical path. Writing it
+/// would replace an input the command is reading (`build mesh.obj -o
+/// mesh.obj` would leave a blob where the mesh was).
+///
+/// # Errors
+/// As [`check_output`], or the output is an input (named).
+pub fn check_output_apart(path: &Path, inputs: &[&Path]) -> Result<(), RecordFileError> {
+    check_output(path)?;
+    for input in inputs {
+        if same_file(path, input) {
+            return Err(RecordFileError::new(
+                path,
+                format!(
+                    "is the input {} (the same file): writing it would replace the input; choose another output",
+                    input.display()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Whether `a` and `b` both exist and are one file.
+fn same_file(a: &Path, b: &Path) -> bool {
+    let (Ok(ma), Ok(mb)) = (std::fs::metadata(a), std::fs::metadata(b)) else {
+        return false;
+    };
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt as _;
+        (ma.dev(), ma.ino()) == (mb.dev(), mb.ino())
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (ma, mb);
+        matches!(
+            (std::fs::canonicalize(a), std::fs::canonicalize(b)),
+            (Ok(x), Ok(y)) if x == y
+        )
+    }
+}
+
 /// The folder `path` lives in (`.` for a bare file name).
 fn folder_of(path: &Path) -> &Path {
     match path.parent() {

@@ -1126,3 +1126,194 @@ fn first_hits_stream_past_the_memory_limit() {
         assert_eq!(first, &many[r * 1024 * 16..r * 1024 * 16 + 16], "ray {r}");
     }
 }
+
+/// An output that is one of the command's inputs (the same file, also
+/// through a symlink or a hard link) is refused, and the input kept.
+#[test]
+fn an_output_over_an_input_is_refused() {
+    let dir = folder("apart");
+    let obj = write(&dir.join("victim.obj"), QUAD_OBJ);
+    let tree = dir.join("q.kdt").display().to_string();
+    assert!(kdray(&["build", &obj, "-o", &tree]).status.success());
+    let rays = write(
+        &dir.join("keep.rays"),
+        &ray_bytes(&[[0.25, 0.75, 2.0, 0.0, 0.0, 0.0, -1.0, f32::INFINITY]]),
+    );
+    let pts = write(&dir.join("p.pts"), &[0u8; 12 * 4]);
+    let mut names = vec![obj.clone(), rays.clone(), tree.clone(), pts.clone()];
+    #[cfg(unix)]
+    {
+        let link = dir.join("link.obj");
+        let _ = std::fs::remove_file(&link);
+        std::os::unix::fs::symlink(&obj, &link).unwrap();
+        let hard = dir.join("hard.rays");
+        let _ = std::fs::remove_file(&hard);
+        std::fs::hard_link(&rays, &hard).unwrap();
+        names.push(link.display().to_string());
+        names.push(hard.display().to_string());
+    }
+    let before: Vec<Vec<u8>> = names.iter().map(|n| std::fs::read(n).unwrap()).collect();
+    let link_obj = names.get(4).cloned().unwrap_or(obj.clone());
+    let hard_rays = names.get(5).cloned().unwrap_or(rays.clone());
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["build", &obj, "-o", &obj], &obj),
+        (vec!["build", &obj, "-o", &link_obj], &obj),
+        (vec!["trace", &tree, &rays, "-o", &rays], &rays),
+        (vec!["trace", &tree, &rays, "-o", &hard_rays], &rays),
+        (vec!["trace", &tree, &rays, "-o", &tree], &tree),
+        (vec!["render", &tree, "-o", &tree], &tree),
+        (vec!["rays", &obj, "-o", &obj], &obj),
+        (vec!["export-obj", &obj, "-o", &obj], &obj),
+        (vec!["build-points", &pts, "-o", &pts], &pts),
+        (vec!["knn", &pts, &pts, "-o", &pts], &pts),
+    ];
+    for (args, input) in cases {
+        let o = kdray(&args);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
+        assert!(
+            e.contains(&format!("is the input {input} (the same file)")),
+            "{args:?}: {e}"
+        );
+    }
+    let after: Vec<Vec<u8>> = names.iter().map(|n| std::fs::read(n).unwrap()).collect();
+    assert!(before == after, "an input changed");
+}
+
+/// A glTF (buffer in a data: URI) whose mesh, the unit quad in z = 0, two
+/// nodes place: as is, and moved by 2 in x.
+fn quad_gltf() -> Vec<u8> {
+    use base64::Engine as _;
+    let mut bin: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 1., 1., 0., 0., 1., 0.]
+        .iter()
+        .flat_map(|f| f.to_le_bytes())
+        .collect();
+    for i in [0u16, 1, 2, 0, 2, 3] {
+        bin.extend(i.to_le_bytes());
+    }
+    let uri = base64::engine::general_purpose::STANDARD.encode(&bin);
+    format!(
+        r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0, 1]}}],
+  "nodes": [{{"mesh": 0}}, {{"mesh": 0, "translation": [2, 0, 0]}}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1}}]}}],
+  "buffers": [{{"uri": "data:application/octet-stream;base64,{uri}", "byteLength": 60}}],
+  "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 48}}, {{"buffer": 0, "byteOffset": 48, "byteLength": 12}}],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]}},
+    {{"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"}}]}}"#
+    )
+    .into_bytes()
+}
+
+/// Each command reads the blob kinds it can and names the kind it
+/// cannot: never "invalid" for a valid blob of another kind.
+#[test]
+fn every_blob_kind_is_read_or_named() {
+    let dir = folder("kinds");
+    let gltf = write(&dir.join("quad.gltf"), &quad_gltf());
+    let scene = dir.join("scene.kdt").display().to_string();
+    let o = kdray(&["build", &gltf, "-o", &scene, "--instances"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let pts = write(&dir.join("p.pts"), &[0u8; 12 * 40]);
+    let cloud = dir.join("cloud.kdt").display().to_string();
+    assert!(kdray(&["build-points", &pts, "-o", &cloud])
+        .status
+        .success());
+    let rays = dir.join("s.rays").display().to_string();
+    let png = dir.join("s.png").display().to_string();
+
+    // info reads a point blob and prints its statistics.
+    let o = kdray(&["info", &cloud, "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = json(&o);
+    assert_eq!(
+        (j["valid"].clone(), j["kind"].clone()),
+        (true.into(), "points".into())
+    );
+    assert_eq!(
+        (j["points"].clone(), j["dim"].clone()),
+        (40.into(), 3.into())
+    );
+    let o = kdray(&["info", &cloud]);
+    assert!(
+        stdout(&o).contains("valid kdray point tree"),
+        "{}",
+        stdout(&o)
+    );
+
+    // rays reads a scene (camera and random rays)...
+    for kind in ["camera", "camera-tiled", "random"] {
+        let o = kdray(&[
+            "rays", &scene, "-o", &rays, "--kind", kind, "--width", "8", "--height", "8",
+        ]);
+        assert!(o.status.success(), "{kind}: {}", stderr(&o));
+    }
+    // ... and the others name what they were given.
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec!["rays", &scene, "-o", &rays, "--kind", "shadow"],
+            "this is a scene (instanced triangle trees); `kdray rays --kind shadow` takes a triangle tree",
+        ),
+        (
+            vec!["rays", &cloud, "-o", &rays],
+            "this is a point tree; `kdray rays` takes a mesh, a triangle tree or a scene",
+        ),
+        (
+            vec!["trace", &cloud, &rays, "-o", &png],
+            "this is a point tree; `kdray trace` takes a triangle tree or a scene",
+        ),
+        (
+            vec!["render", &cloud, "-o", &png],
+            "this is a point tree; `kdray render` takes a mesh, a triangle tree or a scene",
+        ),
+    ];
+    for (args, want) in cases {
+        let o = kdray(&args);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
+        assert!(e.contains(want) && !e.contains("invalid"), "{args:?}: {e}");
+    }
+}
+
+/// `trace` on a scene blob refuses the options it cannot honour, and its
+/// JSON has the fields of the mesh path's.
+#[test]
+fn trace_of_a_scene_honours_or_refuses_every_option() {
+    let dir = folder("scene-trace");
+    let gltf = write(&dir.join("quad.gltf"), &quad_gltf());
+    let scene = dir.join("scene.kdt").display().to_string();
+    let flat = dir.join("flat.kdt").display().to_string();
+    assert!(kdray(&["build", &gltf, "-o", &scene, "--instances"])
+        .status
+        .success());
+    assert!(kdray(&["build", &gltf, "-o", &flat]).status.success());
+    let rays = write(
+        &dir.join("r.rays"),
+        &ray_bytes(&[
+            [0.25, 0.75, 2.0, 0.0, 0.0, 0.0, -1.0, f32::INFINITY],
+            [2.5, 0.5, 2.0, 0.0, 0.0, 0.0, -1.0, f32::INFINITY],
+        ]),
+    );
+    let hits = dir.join("r.hits").display().to_string();
+    for (extra, want) in [
+        (&["--counts"][..], "no --counts"),
+        (&["--packet", "8"][..], "leave --packet at 1"),
+        (&["--order", "morton"][..], "instead of --order morton"),
+    ] {
+        let o = kdray(&[&["trace", &scene, &rays, "-o", &hits][..], extra].concat());
+        assert_eq!(o.status.code(), Some(1), "{extra:?}");
+        assert!(stderr(&o).contains(want), "{extra:?}: {}", stderr(&o));
+    }
+    let o = kdray(&["trace", &flat, &rays, "-o", &hits, "--json"]);
+    let mesh = json(&o);
+    let o = kdray(&["trace", &scene, &rays, "-o", &hits, "--json"]);
+    let scene_json = json(&o);
+    for key in mesh.as_object().unwrap().keys() {
+        assert!(
+            scene_json.get(key).is_some(),
+            "{key} missing from {scene_json}"
+        );
+    }
+    assert_eq!(scene_json["hits"], 2);
+    assert_eq!(scene_json["order"], "given");
+}

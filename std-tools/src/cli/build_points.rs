@@ -75,7 +75,7 @@ pub(crate) struct Args {
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
-    io::check_output(&a.output)?;
+    io::check_output_apart(&a.output, &[&a.points])?;
     if a.leaf_size == Some(0) {
         return Err("--leaf-size must be at least 1".into());
     }

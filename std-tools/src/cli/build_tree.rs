@@ -53,7 +53,7 @@ pub(crate) struct Args {
 
 pub(crate) fn run(a: &Args) -> CmdResult {
     // Every argument is checked before the mesh is read and built.
-    io::check_output(&a.output)?;
+    io::check_output_apart(&a.output, &[&a.mesh])?;
     let kind = BuilderKind::parse(&a.builder)?;
     check_threads(a.threads)?;
     let d = BuildParams::default();

@@ -178,6 +178,21 @@ fn check_image(width: u32, height: u32, names: &str) -> Result<(), String> {
     Ok(())
 }
 
+/// The error for a valid blob of a kind `command` does not take: "this
+/// is a point tree; `kdray rays` takes a triangle tree or a scene".
+fn wrong_kind(
+    path: &std::path::Path,
+    kind: kdray_tools::blob::BlobKind,
+    command: &str,
+    takes: &str,
+) -> String {
+    format!(
+        "{}: this is {}; `kdray {command}` takes {takes}",
+        path.display(),
+        kind.describe()
+    )
+}
+
 /// How the commands that read a mesh read it.
 #[derive(clap::Args, Debug, Default, Clone, Copy)]
 struct MeshArgs {

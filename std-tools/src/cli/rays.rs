@@ -4,8 +4,9 @@
 
 use super::render::{tree_blob, View};
 use super::trace::parse_width;
-use super::{CmdResult, MeshArgs, MAX_PIXELS};
+use super::{wrong_kind, CmdResult, MeshArgs, MAX_PIXELS};
 use kdray_kernel::{Hit, PacketWidth, Ray};
+use kdray_tools::blob::BlobKind;
 use kdray_tools::camera::random_ray_iter;
 use kdray_tools::render::{shadow_ray, tile_size, tiled_pixels_into, RenderParams};
 use kdray_tools::{io, memory};
@@ -56,7 +57,7 @@ pub(crate) struct Args {
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
-    io::check_output(&a.output)?;
+    io::check_output_apart(&a.output, &[&a.scene])?;
     a.view.check()?;
     if a.count == 0 || a.count as u64 > MAX_PIXELS {
         return Err(format!(
@@ -66,10 +67,30 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         .into());
     }
     let blob = tree_blob(&a.scene, a.mesh_args)?;
-    let tree = blob
-        .tree()
-        .map_err(|e| format!("{}: invalid tree blob: {e}", a.scene.display()))?;
-    let scene = tree.bounds();
+    let tree = || {
+        blob.tree()
+            .map_err(|e| format!("{}: invalid tree blob: {e}", a.scene.display()))
+    };
+    // A scene blob frames and aims rays as a flattened mesh does; only
+    // shadow rays need one tree's triangles (to shade the camera hits).
+    let scene = match blob.kind() {
+        BlobKind::Scene if a.kind == Kind::Shadow => {
+            return Err(format!(
+                "{}: this is {}; `kdray rays --kind shadow` takes a triangle tree or a mesh (build it without --instances)",
+                a.scene.display(),
+                BlobKind::Scene.describe()
+            )
+            .into())
+        }
+        BlobKind::Scene => blob
+            .scene()
+            .map_err(|e| format!("{}: invalid scene blob: {e}", a.scene.display()))?
+            .bounds(),
+        BlobKind::Points => {
+            return Err(wrong_kind(&a.scene, BlobKind::Points, "rays", "a mesh, a triangle tree or a scene").into())
+        }
+        BlobKind::Triangles | BlobKind::Unknown => tree()?.bounds(),
+    };
     let camera = a.view.camera(&scene);
     let (w, h) = (a.view.width, a.view.height);
     // Every buffer is reserved before it is filled: an image or count
@@ -89,6 +110,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             "random rays",
         )?,
         Kind::Shadow => {
+            let tree = tree()?;
             let params = RenderParams::new(camera, w, h);
             let mut rays = memory::collected(pixels, camera.ray_iter(w, h), "camera rays")?;
             let mut hits = memory::filled(pixels, Hit::MISS, "camera hits")?;

@@ -3,13 +3,13 @@
 
 use super::progress::counted_bar;
 use super::trace::parse_width;
-use super::{check_image, plural, thread_pool, CmdResult, MeshArgs};
+use super::{check_image, plural, thread_pool, wrong_kind, CmdResult, MeshArgs};
 use glam::Vec3;
 use kdray_kernel::{Bounds, PacketWidth};
-use kdray_tools::blob::{write_triangle_tree, Blob};
+use kdray_tools::blob::{write_triangle_tree, Blob, BlobKind};
 use kdray_tools::builders::{build, BuildParams, BuilderKind};
 use kdray_tools::camera::Camera;
-use kdray_tools::instances::{is_scene_blob, SceneTracer};
+use kdray_tools::instances::SceneTracer;
 use kdray_tools::io;
 use kdray_tools::render::{bands, render, render_heatmap, RenderParams, TreeTracer};
 use std::path::{Path, PathBuf};
@@ -119,12 +119,22 @@ pub(super) fn tree_blob(
 
 pub(crate) fn run(a: &Args) -> CmdResult {
     // Every argument is checked before the scene is loaded or built.
-    io::check_output(&a.output)?;
+    io::check_output_apart(&a.output, &[&a.input])?;
     a.view.check()?;
     let pool = thread_pool(a.threads)?;
     let blob = tree_blob(&a.input, a.mesh_args)?;
-    if is_scene_blob(blob.as_bytes()) {
-        return render_scene(a, &pool, &blob);
+    match blob.kind() {
+        BlobKind::Scene => return render_scene(a, &pool, &blob),
+        BlobKind::Points => {
+            return Err(wrong_kind(
+                &a.input,
+                BlobKind::Points,
+                "render",
+                "a mesh, a triangle tree or a scene",
+            )
+            .into())
+        }
+        BlobKind::Triangles | BlobKind::Unknown => {}
     }
     let tree = blob
         .tree()

@@ -1,10 +1,10 @@
 //! `kdray trace TREE RAYS -o HITS`: trace a ray file, write a hit file.
 
 use super::json::JsonObject;
-use super::{plural, thread_pool, CmdResult};
+use super::{plural, thread_pool, wrong_kind, CmdResult};
 use kdray_kernel::{Hit, Ray, Treelet};
-use kdray_tools::blob::Blob;
-use kdray_tools::instances::{first_hits_scene, is_scene_blob, scene_offsets, trace_scene};
+use kdray_tools::blob::{Blob, BlobKind};
+use kdray_tools::instances::{first_hits_scene, scene_offsets, trace_scene};
 use kdray_tools::trace::{first_hits_into, trace_into, Order, PacketWidth, Query};
 use kdray_tools::{io, memory};
 use std::io::Write as _;
@@ -70,14 +70,24 @@ fn parse_order(s: &str) -> Result<Order, String> {
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
-    io::check_output(&a.output)?;
+    io::check_output_apart(&a.output, &[&a.tree, &a.rays])?;
     if a.repeat == 0 {
         return Err("--repeat must be at least 1".into());
     }
     let pool = thread_pool(a.threads)?;
     let blob = Blob::read(&a.tree).map_err(|e| format!("{}: {e}", a.tree.display()))?;
-    if is_scene_blob(blob.as_bytes()) {
-        return trace_scene_blob(a, &pool, &blob);
+    match blob.kind() {
+        BlobKind::Scene => return trace_scene_blob(a, &pool, &blob),
+        BlobKind::Points => {
+            return Err(wrong_kind(
+                &a.tree,
+                BlobKind::Points,
+                "trace",
+                "a triangle tree or a scene",
+            )
+            .into())
+        }
+        BlobKind::Triangles | BlobKind::Unknown => {}
     }
     let tree = blob
         .tree()
@@ -136,10 +146,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             .with("repeat", a.repeat)
             .with("seconds", seconds)
             .with("mrays_per_s", mrays)
-            .with(
-                "timing",
-                "seconds: the best pass, excluding reading the tree and rays and writing the hits",
-            );
+            .with("timing", TIMING);
         if let Some((nodes, tris)) = per_ray {
             j = j
                 .with("nodes_per_ray", nodes)
@@ -169,6 +176,10 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     Ok(())
 }
 
+/// What `seconds` in the JSON output covers.
+const TIMING: &str =
+    "seconds: the best pass, excluding reading the tree and rays and writing the hits";
+
 /// The most records a ray `--first-hits` writes.
 const MAX_FIRST_HITS: usize = 1024;
 
@@ -191,6 +202,14 @@ fn trace_first_hits(
     }
     if a.packet != PacketWidth::One {
         return Err("--first-hits traces single rays: leave --packet at 1".into());
+    }
+    if a.counts {
+        return Err(
+            "--first-hits has no --counts: count the closest hits (without --first-hits)".into(),
+        );
+    }
+    if a.order == Order::Morton {
+        return Err("--first-hits traces the rays in the file's order: sort the file with `kdray sort-rays` instead of --order morton".into());
     }
     let part = (FIRST_HITS_PART / k).max(1);
     let mut hits = memory::filled(part.min(rays.len()) * k, Hit::MISS, "first-hit records")?;
@@ -228,10 +247,7 @@ fn trace_first_hits(
             .with("repeat", a.repeat)
             .with("seconds", seconds)
             .with("mrays_per_s", mrays)
-            .with(
-                "timing",
-                "seconds: the best pass, excluding reading the tree and rays and writing the hits",
-            );
+            .with("timing", TIMING);
         say!("{}", j.finish());
     } else {
         say!(
@@ -252,6 +268,19 @@ fn trace_scene_blob(a: &Args, pool: &rayon::ThreadPool, blob: &Blob) -> CmdResul
     let scene = blob
         .scene()
         .map_err(|e| format!("{}: invalid scene blob: {e}", a.tree.display()))?;
+    // What the mesh path offers and a scene does not is refused, not
+    // ignored: its rays are traced one at a time, in the file's order,
+    // and it has no counted walk.
+    let refuse = |what: &str| format!("{}: a scene blob {what}", a.tree.display());
+    if a.counts {
+        return Err(refuse("has no --counts (they count one tree's nodes): trace the flattened mesh's tree (kdray build without --instances) for them").into());
+    }
+    if a.packet != PacketWidth::One {
+        return Err(refuse("traces single rays: leave --packet at 1").into());
+    }
+    if a.order == Order::Morton {
+        return Err(refuse("traces its rays in the file's order: sort the file with `kdray sort-rays` instead of --order morton").into());
+    }
     let offsets = scene_offsets(&scene);
     let rays: Vec<Ray> = io::read_records(&a.rays, "ray")?;
     if let Some(k) = a.first_hits {
@@ -272,9 +301,14 @@ fn trace_scene_blob(a: &Args, pool: &rayon::ThreadPool, blob: &Blob) -> CmdResul
             .with("hits", hit_count)
             .with("threads", pool.current_num_threads())
             .with("query", if a.any_hit { "any" } else { "closest" })
-            .with("instances", scene.instances().len())
+            .with("packet", 1)
+            .with("order", "given")
+            .with("isa", kdray_kernel::isa().name())
+            .with("repeat", a.repeat)
             .with("seconds", seconds)
-            .with("mrays_per_s", mrays);
+            .with("mrays_per_s", mrays)
+            .with("timing", TIMING)
+            .with("instances", scene.instances().len());
         say!("{}", j.finish());
     } else {
         say!(

@@ -65,8 +65,8 @@ pub(crate) struct Args {
     output: PathBuf,
     #[command(flatten)]
     shape: Shape,
-    /// Points per leaf (the lecture's m; default 32 below 8-D, 64 from
-    /// 8-D on).
+    /// The most points a leaf holds (default 32 below 8-D, 64 from 8-D
+    /// on): larger leaves make a smaller tree and test more points a query.
     #[arg(long)]
     leaf_size: Option<usize>,
     /// Print one JSON object instead of the summary.

@@ -28,15 +28,16 @@ pub(crate) struct Args {
     #[arg(long)]
     threads: Option<usize>,
     /// Cost of a traversal step in the SAH (default: BuildParams' 1.0).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     traversal_cost: Option<f32>,
     /// Cost of a triangle test in the SAH (default: BuildParams' 0.5).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     intersection_cost: Option<f32>,
     /// Fraction of cost forgiven for an empty side (default: BuildParams' 0.2).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     empty_bonus: Option<f32>,
-    /// Deepest leaf (default 8 + 1.3 log2 n, at most 64).
+    /// Deepest leaf (default 8 + 1.3 log2 n, at most 64; a larger value is
+    /// refused).
     #[arg(long)]
     max_depth: Option<u32>,
     /// Print one JSON object instead of the summary.
@@ -56,6 +57,13 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     io::check_output_apart(&a.output, &[&a.mesh])?;
     let kind = BuilderKind::parse(&a.builder)?;
     check_threads(a.threads)?;
+    if let Some(d) = a.max_depth.filter(|&d| d > kdray_kernel::MAX_DEPTH) {
+        return Err(format!(
+            "--max-depth {d} is more than {}, the deepest tree the kernel's traversal stack holds",
+            kdray_kernel::MAX_DEPTH
+        )
+        .into());
+    }
     let d = BuildParams::default();
     let params = BuildParams {
         threads: a.threads,

@@ -27,8 +27,8 @@ pub(crate) struct Args {
     /// index then the squared distance as f32, or f64 with --f64).
     #[arg(short, long)]
     output: PathBuf,
-    /// Points per leaf (the lecture's m; default 32 below 8-D, 64 from
-    /// 8-D on).
+    /// The most points a leaf holds (default 32 below 8-D, 64 from 8-D
+    /// on): larger leaves make a smaller tree and test more points a query.
     #[arg(long)]
     leaf_size: Option<usize>,
     /// Build and answer this many times; timings are the best pass.

@@ -30,9 +30,11 @@ mod trace;
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
-/// kdray: k-d tree ray tracing. With no command, runs the built-in demo.
+/// kdray: build k-d trees over meshes and point sets, then trace rays and
+/// answer nearest-neighbour queries against them. With no command, runs
+/// the built-in demo.
 #[derive(Parser, Debug)]
-#[command(name = "kdray", version, about, long_about = None)]
+#[command(name = "kdray", version, long_about = None)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,

@@ -63,7 +63,7 @@ pub(super) struct View {
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     target: Option<Vec3>,
     /// Vertical field of view in degrees.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     fov: Option<f32>,
     /// Image width in pixels.
     #[arg(long, default_value_t = 640)]

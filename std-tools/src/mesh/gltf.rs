@@ -109,6 +109,18 @@ fn walk(
 ) -> Result<(), MeshError> {
     let err = |msg: String| MeshError::new(path, None, msg);
     let bytes = std::fs::read(path).map_err(|e| err(format!("cannot open: {e}")))?;
+    // Extensions first: the validating parse calls a file that needs one
+    // "malformed", where it is well formed and only unsupported.
+    if let Ok(raw) = gltf::Gltf::from_slice_without_validation(&bytes) {
+        let required: Vec<&str> = raw.document.extensions_required().collect();
+        if !required.is_empty() {
+            return Err(err(format!(
+                "requires the glTF extension{} {}, which kdray does not read (unsupported: every extension, such as KHR_draco_mesh_compression and KHR_mesh_quantization; docs/formats.md)",
+                if required.len() == 1 { "" } else { "s" },
+                required.join(", ")
+            )));
+        }
+    }
     let g = gltf::Gltf::from_slice(&bytes).map_err(|e| err(format!("malformed glTF: {e}")))?;
     let buffers = g
         .document
@@ -209,9 +221,11 @@ fn buffer_file(gltf: &Path, uri: &str, allow_outside: bool) -> Result<PathBuf, S
         return Ok(file);
     }
     let refuse = || {
+        // The folder by its full name: "." says nothing in a message.
+        let named = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
         format!(
             "URI {uri:?} points outside the glTF's folder {} (pass --allow-outside-uris to read it)",
-            dir.display()
+            named.display()
         )
     };
     let rel = Path::new(&decoded);
@@ -456,7 +470,9 @@ fn elements<'b>(
 ) -> Result<impl Iterator<Item = &'b [u8]>, String> {
     let a = acc.index();
     if acc.sparse().is_some() {
-        return Err(format!("accessor {a}: sparse accessors are not supported"));
+        return Err(format!(
+            "accessor {a}: sparse accessors are unsupported (docs/formats.md): store the values whole"
+        ));
     }
     let view = acc
         .view()

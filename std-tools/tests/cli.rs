@@ -722,20 +722,23 @@ fn sizes_are_checked() {
         );
         assert!(!err.contains("panicked"), "{args:?}: {err}");
     }
-    // bench alone takes 0 as all cores.
-    let o = kdray(&[
-        "bench",
-        "needles",
-        "--rays",
-        "64",
-        "--repeat",
-        "1",
-        "--threads",
-        "0",
-        "--builders",
-        "median",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    // bench refuses --threads 0 as every other command does, and a bad
+    // scene before it prints the table's header.
+    let o = kdray(&["bench", "needles", "--rays", "64", "--threads", "0"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("--threads must be at least 1"),
+        "{}",
+        stderr(&o)
+    );
+    let o = kdray(&["bench", "needles", "/nonexistent/mesh.obj", "--rays", "64"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stdout(&o).is_empty(), "{}", stdout(&o));
+    assert!(
+        stderr(&o).contains("/nonexistent/mesh.obj"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 /// Mesh problems through the binary: faces of fewer than three corners, an
@@ -1316,4 +1319,103 @@ fn trace_of_a_scene_honours_or_refuses_every_option() {
     }
     assert_eq!(scene_json["hits"], 2);
     assert_eq!(scene_json["order"], "given");
+}
+
+/// The smaller rough edges: negative numbers as values, --max-depth past
+/// the kernel's stack, the fast builder's peak memory, demo's sample and
+/// folder, the top-level help, the glTF folder by name.
+#[test]
+fn small_rough_edges_are_smoothed() {
+    let dir = folder("rough");
+    let obj = write(&dir.join("q.obj"), QUAD_OBJ);
+    let png = dir.join("q.png").display().to_string();
+    let tree = dir.join("q.kdt").display().to_string();
+    // A negative number is a value, not a flag: refused for its range.
+    let o = kdray(&["render", &obj, "-o", &png, "--fov", "-10"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("--fov must be between 0 and 180 degrees, not -10"),
+        "{}",
+        stderr(&o)
+    );
+    let o = kdray(&["build", &obj, "-o", &tree, "--traversal-cost", "-1"]);
+    assert!(
+        stderr(&o).contains("--traversal-cost must be a positive number, not -1"),
+        "{}",
+        stderr(&o)
+    );
+    let o = kdray(&["build", &obj, "-o", &tree, "--max-depth", "65"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("--max-depth 65 is more than 64"),
+        "{}",
+        stderr(&o)
+    );
+    // Every builder reports the memory it worked in.
+    for builder in ["fast", "sah", "median"] {
+        let o = kdray(&["build", &obj, "-o", &tree, "--builder", builder, "--json"]);
+        let peak = json(&o)["peak_build_bytes_per_triangle"].as_f64().unwrap();
+        assert!(peak > 0.0, "{builder}: {peak}");
+    }
+    // demo: exactly the sample asked for (or none), one speed on one
+    // thread, and an --out-dir that is a file named as such.
+    let out = dir.join("demo").display().to_string();
+    let o = kdray(&[
+        "demo",
+        "--size",
+        "16",
+        "--brute-sample",
+        "200",
+        "--out-dir",
+        &out,
+    ]);
+    assert!(
+        stdout(&o).contains("brute force on 200 of those rays"),
+        "{}",
+        stdout(&o)
+    );
+    let o = kdray(&[
+        "demo",
+        "--size",
+        "16",
+        "--brute-sample",
+        "0",
+        "--out-dir",
+        &out,
+    ]);
+    assert!(
+        o.status.success() && stdout(&o).contains("skipped (--brute-sample 0)"),
+        "{}",
+        stdout(&o)
+    );
+    let o = kdray(&["demo", "--size", "16", "--out-dir", &obj]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("is a file, not a folder"),
+        "{}",
+        stderr(&o)
+    );
+    // The help's first line describes the tool, not the crate.
+    let o = kdray(&["--help"]);
+    let help = stdout(&o);
+    assert!(help.starts_with("kdray: build k-d trees"), "{help}");
+    let o = kdray(&["build-points", "--help"]);
+    assert!(!stdout(&o).contains("lecture"), "{}", stdout(&o));
+    // A glTF beside the working folder names its folder in full.
+    let gltf = br#"{"asset": {"version": "2.0"}, "scenes": [{"nodes": []}], "buffers": [{"uri": "../x.bin", "byteLength": 4}]}"#;
+    write(&dir.join("out.gltf"), gltf);
+    let o = Command::new(env!("CARGO_BIN_EXE_kdray"))
+        .args(["build", "out.gltf", "-o", "out.kdt"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    let canonical = std::fs::canonicalize(&dir).unwrap();
+    assert!(
+        stderr(&o).contains(&format!(
+            "outside the glTF's folder {} ",
+            canonical.display()
+        )),
+        "{}",
+        stderr(&o)
+    );
 }

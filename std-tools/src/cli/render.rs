@@ -27,7 +27,8 @@ pub(crate) struct Args {
     #[command(flatten)]
     view: View,
     /// Render the traversal cost per pixel (nodes visited + triangles
-    /// tested, single rays) instead of the shaded picture.
+    /// tested, single rays) instead of the shaded picture. The PNG is 32
+    /// pixels taller than --height: the legend strip under the image.
     #[arg(long)]
     heatmap: bool,
     /// Rays per packet: 1, 4 (2x2 pixel tiles), 8 (4x2 tiles) or 16 (4x4
@@ -147,7 +148,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let image = if a.heatmap {
         let bar = counted_bar(u64::from(height));
         let h = pool.install(|| render_heatmap(&tree, &params, &|| bar.inc(1)));
-        bar.finish_and_clear();
+        bar.finish();
         say!(
             "cost per pixel (nodes visited + triangles tested): min {}, mean {:.1}, max {}",
             h.min,
@@ -162,7 +163,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             width: a.packet,
         };
         let img = pool.install(|| render(&tracer, &params, &|| bar.inc(1)));
-        bar.finish_and_clear();
+        bar.finish();
         img
     };
     let seconds = t.elapsed().as_secs_f64();
@@ -204,7 +205,7 @@ fn render_scene(a: &Args, pool: &rayon::ThreadPool, blob: &Blob) -> CmdResult {
     let t = Instant::now();
     let bar = counted_bar(bands(height, PacketWidth::One));
     let image = pool.install(|| render(&tracer, &params, &|| bar.inc(1)));
-    bar.finish_and_clear();
+    bar.finish();
     let seconds = t.elapsed().as_secs_f64();
     image.write_png(&a.output)?;
     say!(

@@ -169,9 +169,13 @@ fn add_mesh(
             let n = prim
                 .get(&gltf::Semantic::Positions)
                 .map_or(0, |a| a.count());
-            skipped.push(format!(
+            let note = format!(
                 "{at}: a {kind} primitive ({n} vertices) skipped: only triangles are traced"
-            ));
+            );
+            // Once per mesh, however many nodes use it.
+            if !skipped.contains(&note) {
+                skipped.push(note);
+            }
             continue;
         }
         add_primitive(path, &at, &prim, buffers, m, tris)?;

@@ -22,7 +22,7 @@ mod rays;
 mod render;
 mod report;
 #[cfg(unix)]
-#[allow(unsafe_code)] // three C library calls, each with its SAFETY argument
+#[allow(unsafe_code)] // one query of a signal's action, with its SAFETY argument
 mod signals;
 mod sort_rays;
 mod trace;

@@ -1388,6 +1388,26 @@ fn small_rough_edges_are_smoothed() {
         "{}",
         stdout(&o)
     );
+    // On one core (taskset, where there is one) one speed, not the same twice.
+    let one_core = Command::new("taskset")
+        .args([
+            "-c",
+            "0",
+            env!("CARGO_BIN_EXE_kdray"),
+            "demo",
+            "--size",
+            "16",
+        ])
+        .args(["--brute-sample", "5", "--out-dir", &out])
+        .output();
+    if let Ok(o) = one_core.filter(|o| o.status.success()) {
+        let line = stdout(&o)
+            .lines()
+            .find(|l| l.starts_with("traced"))
+            .unwrap_or("")
+            .to_string();
+        assert_eq!(line.matches("Mrays/s").count(), 1, "{line}");
+    }
     let o = kdray(&["demo", "--size", "16", "--out-dir", &obj]);
     assert_eq!(o.status.code(), Some(1));
     assert!(

@@ -1400,7 +1400,7 @@ fn small_rough_edges_are_smoothed() {
         ])
         .args(["--brute-sample", "5", "--out-dir", &out])
         .output();
-    if let Ok(o) = one_core.filter(|o| o.status.success()) {
+    if let Some(o) = one_core.ok().filter(|o| o.status.success()) {
         let line = stdout(&o)
             .lines()
             .find(|l| l.starts_with("traced"))

@@ -1060,7 +1060,19 @@ fn memory_that_runs_out_is_an_error_not_an_abort() {
     let ply = dir.join("grid.ply");
     std::fs::write(&ply, grid_ply(601)).unwrap();
     let tree = dir.join("grid.kdt").display().to_string();
-    let o = kdray_limited(500_000, &["build", &ply.display().to_string(), "-o", &tree]);
+    // Two threads: on a machine of many cores, their stacks alone would
+    // take a share of the limit.
+    let o = kdray_limited(
+        500_000,
+        &[
+            "build",
+            &ply.display().to_string(),
+            "-o",
+            &tree,
+            "--threads",
+            "2",
+        ],
+    );
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{e}");
     assert!(e.contains("kdray: error: out of memory"), "{e}");
@@ -1096,6 +1108,8 @@ fn first_hits_stream_past_the_memory_limit() {
             "--first-hits",
             "1024",
             "--json",
+            "--threads",
+            "2",
         ],
     );
     assert!(o.status.success(), "{}", stderr(&o));

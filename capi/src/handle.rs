@@ -213,6 +213,20 @@ pub(crate) unsafe fn open<V: View>(
     }
 }
 
+/// The open functions' message for a blob at an address that is not a
+/// multiple of 4 (the address modulo 4), in a C programmer's terms.
+struct MisalignedForC(usize);
+
+impl fmt::Display for MisalignedForC {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "blob is not 4-byte aligned (address % 4 = {}); pass the start of memory from malloc or aligned_alloc (or a buffer declared _Alignas(64)), not an offset into it",
+            self.0
+        )
+    }
+}
+
 /// [`open`] with the loading step given: `load` validates the blob and
 /// stores the view in the (checked, closed) handle.
 ///
@@ -232,6 +246,14 @@ pub(crate) unsafe fn open_with<H, E: fmt::Display>(
         unsafe { begin_open(handle) }?;
         // SAFETY: the blob's contract (`len` readable bytes).
         let bytes = unsafe { blob_slice(blob, len) }?;
+        let offset = bytes.as_ptr() as usize % 4;
+        if offset != 0 {
+            // The kernel's sentence advises a Rust macro; a C caller gets
+            // the C way to aligned bytes.
+            // SAFETY: `message`'s contract.
+            unsafe { write_message(message, message_len, MisalignedForC(offset)) };
+            return Err(KdrayStatus::InvalidBlob);
+        }
         load(bytes).map_err(|e| {
             // SAFETY: `message`'s contract.
             unsafe { write_message(message, message_len, e) };

@@ -218,13 +218,12 @@ fn bad_arguments_are_error_codes() {
             )
         });
         assert_eq!(s, KdrayStatus::InvalidBlob);
-        assert_eq!(
-            text,
-            TriangleTree::from_bytes(&CUBE.bytes[1..])
-                .unwrap_err()
-                .to_string()
+        assert!(
+            text.starts_with("blob is not 4-byte aligned (address % 4 = ")
+                && text.contains("malloc")
+                && !text.contains("kdray_kernel"),
+            "{text}"
         );
-        assert!(text.contains("align"), "{text}");
         // A point query on a triangle handle.
         let mut n = KdrayNeighbour::zeroed();
         let q = [0.0f32; 3];

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds libkdray_capi.a and .so, checks that include/kdray.h is what
-# cbindgen makes of the code, compiles the C test and the C++ camera
-# example against each library with the system's gcc and g++, runs them,
+# cbindgen makes of the code, compiles the C test, the C quick start and
+# the C++ camera example against each library with the system's gcc and g++, runs them,
 # and compares their rays' hits byte for byte with the Rust API's
 # (`kdray trace`, `kdray knn`). Run from anywhere; CI runs it.
 set -euo pipefail
@@ -36,6 +36,17 @@ gcc $cflags capi/tests/capi_test.c "$lib/libkdray_capi.a" $native -o "$out/capi_
 gcc $cflags capi/tests/capi_test.c -L"$lib" -l:libkdray_capi.so -Wl,-rpath,"$(cd "$lib" && pwd)" -lm -o "$out/capi_test_dynamic"
 g++ $cxxflags capi/examples/camera.cpp "$lib/libkdray_capi.a" $native -o "$out/camera_static"
 g++ $cxxflags capi/examples/camera.cpp -L"$lib" -l:libkdray_capi.so -Wl,-rpath,"$(cd "$lib" && pwd)" -o "$out/camera_dynamic"
+# The README's C quick start, a whole program: it answers on the golden
+# cube and returns 1, without tracing, on a blob the library refuses.
+gcc $cflags capi/examples/quickstart.c "$lib/libkdray_capi.a" $native -o "$out/quickstart"
+"$out/quickstart" kernel/golden/cube-v2.kdt | grep -q "^hit triangle 1 at t = 1 "
+head -c 100 kernel/golden/cube-v2.kdt > "$out/cut.kdt"
+if "$out/quickstart" "$out/cut.kdt" 2> "$out/quickstart.err"; then
+  echo "quickstart accepted a truncated blob" >&2
+  exit 1
+fi
+grep -q "refused: blob truncated" "$out/quickstart.err"
+echo "quickstart: answers on the cube, returns 1 on a refused blob"
 # The dynamic builds really load the shared library.
 ldd "$out/capi_test_dynamic" | grep libkdray_capi.so >/dev/null
 ldd "$out/camera_dynamic" | grep libkdray_capi.so >/dev/null

@@ -37,7 +37,53 @@ impl std::fmt::Display for BlobFileError {
 
 impl std::error::Error for BlobFileError {}
 
+/// What a blob holds, by its header's kind word (nothing else checked):
+/// so a command can say "this is a point tree" rather than "invalid".
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BlobKind {
+    /// A triangle tree (kind 1).
+    Triangles,
+    /// A point tree (kind 3, or the older kind 2).
+    Points,
+    /// A scene of instanced triangle trees (kind 4).
+    Scene,
+    /// Not a kdray blob, or a kind this build does not know.
+    Unknown,
+}
+
+impl BlobKind {
+    /// "a triangle tree", "a point tree", "a scene", "not a kdray tree blob".
+    #[must_use]
+    pub fn describe(self) -> &'static str {
+        match self {
+            BlobKind::Triangles => "a triangle tree",
+            BlobKind::Points => "a point tree",
+            BlobKind::Scene => "a scene (instanced triangle trees)",
+            BlobKind::Unknown => "not a kdray tree blob",
+        }
+    }
+}
+
 impl Blob {
+    /// What the blob holds, by its magic and kind words only (the view
+    /// for that kind validates the rest).
+    #[must_use]
+    pub fn kind(&self) -> BlobKind {
+        let b = self.as_bytes();
+        if b.get(..8) != Some(&kdray_kernel::format::wire::MAGIC[..]) {
+            return BlobKind::Unknown;
+        }
+        match b
+            .get(16..20)
+            .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+        {
+            Some(kdray_kernel::format::wire::KIND_TRIANGLES) => BlobKind::Triangles,
+            Some(2 | kdray_kernel::format::wire::KIND_POINTS) => BlobKind::Points,
+            Some(kdray_kernel::KIND_SCENE) => BlobKind::Scene,
+            _ => BlobKind::Unknown,
+        }
+    }
+
     /// A copy of `bytes`, aligned. (A length that is not a multiple of 4 is
     /// kept exactly; the kernel then reports the truncation.)
     #[must_use]

@@ -76,9 +76,13 @@ impl Camera {
     /// All `w * h` rays, row by row.
     #[must_use]
     pub fn rays(&self, w: u32, h: u32) -> Vec<Ray> {
-        (0..h)
-            .flat_map(|y| (0..w).map(move |x| self.ray(x, y, w, h)))
-            .collect()
+        self.ray_iter(w, h).collect()
+    }
+
+    /// The rays of [`Camera::rays`], one at a time (for a caller that
+    /// reserves their room itself).
+    pub fn ray_iter(&self, w: u32, h: u32) -> impl Iterator<Item = Ray> + '_ {
+        (0..h).flat_map(move |y| (0..w).map(move |x| self.ray(x, y, w, h)))
     }
 }
 
@@ -86,11 +90,14 @@ impl Camera {
 /// sphere (the incoherent case), from `seed`.
 #[must_use]
 pub fn random_rays(bounds: &Bounds, n: usize, seed: u64) -> Vec<Ray> {
+    random_ray_iter(bounds, n, seed).collect()
+}
+
+/// The rays of [`random_rays`], one at a time.
+pub fn random_ray_iter(bounds: &Bounds, n: usize, seed: u64) -> impl Iterator<Item = Ray> + '_ {
     let mut rng = Rng::new(seed);
-    (0..n)
-        .map(|_| {
-            let o: [f32; 3] = std::array::from_fn(|a| rng.range(bounds.min[a], bounds.max[a]));
-            Ray::new(Vec3::from(o), Vec3::from(rng.unit_vector()))
-        })
-        .collect()
+    (0..n).map(move |_| {
+        let o: [f32; 3] = std::array::from_fn(|a| rng.range(bounds.min[a], bounds.max[a]));
+        Ray::new(Vec3::from(o), Vec3::from(rng.unit_vector()))
+    })
 }

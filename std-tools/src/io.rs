@@ -49,19 +49,50 @@ impl std::error::Error for RecordFileError {}
 /// # Errors
 /// The file cannot be read, or its size is not a multiple of the record size.
 pub fn read_records<T: Pod>(path: &Path, what: &str) -> Result<Vec<T>, RecordFileError> {
+    use std::io::Read as _;
     let err = |message: String| RecordFileError::new(path, message);
-    let bytes = std::fs::read(path).map_err(|e| err(format!("cannot read: {e}")))?;
+    let mut file = File::open(path).map_err(|e| err(format!("cannot read: {e}")))?;
+    let meta = file
+        .metadata()
+        .map_err(|e| err(format!("cannot read: {e}")))?;
     let size = std::mem::size_of::<T>();
-    if bytes.len() % size != 0 {
-        return Err(err(format!(
-            "size {} bytes is not a multiple of the {size}-byte {what} record ({} whole records and {} bytes left over)",
-            bytes.len(),
-            bytes.len() / size,
-            bytes.len() % size
-        )));
+    let whole = |len: usize| {
+        if len.is_multiple_of(size) {
+            Ok(len / size)
+        } else {
+            Err(err(format!(
+                "size {len} bytes is not a multiple of the {size}-byte {what} record ({} whole records and {} bytes left over)",
+                len / size,
+                len % size
+            )))
+        }
+    };
+    let oom = |e: crate::memory::OutOfMemory| err(e.to_string());
+    if !meta.is_file() {
+        // A pipe or device: its length is known only at its end.
+        let mut bytes = Vec::new();
+        file.read_to_end(&mut bytes)
+            .map_err(|e| err(format!("cannot read: {e}")))?;
+        let n = whole(bytes.len())?;
+        let mut out =
+            crate::memory::filled(n, T::zeroed(), &format!("{what} records")).map_err(oom)?;
+        bytemuck::cast_slice_mut::<T, u8>(&mut out).copy_from_slice(&bytes);
+        return Ok(out);
     }
-    let mut out = vec![T::zeroed(); bytes.len() / size];
-    bytemuck::cast_slice_mut::<T, u8>(&mut out).copy_from_slice(&bytes);
+    // A regular file is read straight into its records (one copy in
+    // memory, reserved fallibly: the file's size decides it).
+    let len = usize::try_from(meta.len()).unwrap_or(usize::MAX);
+    let n = whole(len)?;
+    let mut out = crate::memory::filled(n, T::zeroed(), &format!("{what} records")).map_err(oom)?;
+    file.read_exact(bytemuck::cast_slice_mut::<T, u8>(&mut out))
+        .map_err(|e| err(format!("cannot read: {e}")))?;
+    if file
+        .read(&mut [0u8])
+        .map_err(|e| err(format!("cannot read: {e}")))?
+        != 0
+    {
+        return Err(err("the file grew while it was read".into()));
+    }
     Ok(out)
 }
 
@@ -104,6 +135,50 @@ pub fn check_output(path: &Path) -> Result<(), RecordFileError> {
         )));
     }
     Ok(())
+}
+
+/// [`check_output`], and refuses an output that is one of `inputs`: the
+/// same file, by device and inode where the platform has them (so also
+/// through a symlink or a hard link), else by canonical path. Writing it
+/// would replace an input the command is reading (`build mesh.obj -o
+/// mesh.obj` would leave a blob where the mesh was).
+///
+/// # Errors
+/// As [`check_output`], or the output is an input (named).
+pub fn check_output_apart(path: &Path, inputs: &[&Path]) -> Result<(), RecordFileError> {
+    check_output(path)?;
+    for input in inputs {
+        if same_file(path, input) {
+            return Err(RecordFileError::new(
+                path,
+                format!(
+                    "is the input {} (the same file): writing it would replace the input; choose another output",
+                    input.display()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Whether `a` and `b` both exist and are one file.
+fn same_file(a: &Path, b: &Path) -> bool {
+    let (Ok(ma), Ok(mb)) = (std::fs::metadata(a), std::fs::metadata(b)) else {
+        return false;
+    };
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt as _;
+        (ma.dev(), ma.ino()) == (mb.dev(), mb.ino())
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (ma, mb);
+        matches!(
+            (std::fs::canonicalize(a), std::fs::canonicalize(b)),
+            (Ok(x), Ok(y)) if x == y
+        )
+    }
 }
 
 /// The folder `path` lives in (`.` for a bare file name).
@@ -161,6 +236,19 @@ pub fn remove_temporaries_then(end: impl FnOnce()) -> ! {
     }
     end();
     std::process::exit(1)
+}
+
+/// Removes every temporary of an unfinished [`Output`] if no other
+/// thread is registering one at this moment (it never waits). For the
+/// `kdray` binary's failed allocation, which must end the process from
+/// wherever it happened, even inside the registry's lock.
+pub fn try_remove_temporaries() {
+    if let Ok(mut t) = TEMPORARIES.try_lock() {
+        t.closing = true;
+        for p in t.paths.drain(..) {
+            let _ = std::fs::remove_file(p);
+        }
+    }
 }
 
 /// Test hook: `KDRAY_TEST_HOLD_OUTPUT_MS` makes [`Output::commit`] wait

@@ -19,6 +19,7 @@ pub mod deforming;
 pub mod demo_scene;
 pub mod instances;
 pub mod io;
+pub mod memory;
 pub mod mesh;
 pub mod morton;
 pub mod points;

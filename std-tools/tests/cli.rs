@@ -30,6 +30,12 @@ fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
 
+/// The one JSON object `--json` printed.
+fn json(o: &Output) -> serde_json::Value {
+    serde_json::from_slice(&o.stdout)
+        .unwrap_or_else(|e| panic!("not JSON ({e}): {}{}", stdout(o), stderr(o)))
+}
+
 const QUAD_OBJ: &[u8] =
     b"# two quads\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nf 1 2 3 4\nf 1 2 5\n";
 
@@ -46,24 +52,21 @@ fn build_info_trace_round_trip() {
     let tree = tmp("quad.kdt").display().to_string();
     let o = kdray(&["build", &obj, "-o", &tree, "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let json = stdout(&o);
+    let j = json(&o);
     for key in [
-        "\"build_ms\"",
-        "\"nodes\"",
-        "\"leaves\"",
-        "\"max_depth\"",
-        "\"sah_cost\"",
-        "\"bytes\"",
-        "\"triangles\": 3",
+        "build_ms",
+        "nodes",
+        "leaves",
+        "max_depth",
+        "sah_cost",
+        "bytes",
     ] {
-        assert!(json.contains(key), "{key} missing from {json}");
+        assert!(j[key].is_number(), "{key} missing from {j}");
     }
+    assert_eq!(j["triangles"], 3, "{j}");
     let o = kdray(&["info", &tree, "--json"]);
-    assert!(
-        o.status.success() && stdout(&o).contains("\"triangles\": 3"),
-        "{}",
-        stderr(&o)
-    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(json(&o)["triangles"], 3);
 
     // Down onto the quad at (0.25, 0.5): the fan (v0,v1,v2),(v0,v2,v3) puts
     // it in triangle 1; a ray off to the side misses.
@@ -84,7 +87,7 @@ fn build_info_trace_round_trip() {
         "--json",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stdout(&o).contains("\"mrays_per_s\""));
+    assert!(json(&o)["mrays_per_s"].is_number());
     let h = std::fs::read(&hits).unwrap();
     assert_eq!(h.len(), 32);
     let word = |i: usize| u32::from_le_bytes(h[i * 4..i * 4 + 4].try_into().unwrap());
@@ -157,8 +160,7 @@ fn trace_packets_match_single_rays() {
             }
             let o = kdray(&args);
             assert!(o.status.success(), "{}", stderr(&o));
-            let packet_json = format!("\"packet\": {packet}");
-            assert!(stdout(&o).contains(&packet_json), "{}", stdout(&o));
+            assert_eq!(json(&o)["packet"].to_string(), packet, "{}", stdout(&o));
             let h = std::fs::read(&hits).unwrap();
             assert_eq!(h.len(), 2101 * 16);
             match &reference {
@@ -216,11 +218,7 @@ fn trace_sorts_scattered_shadow_rays_and_answers_in_file_order() {
         ]);
         assert!(o.status.success(), "{}", stderr(&o));
         let how = if order == "auto" { "morton" } else { "given" };
-        assert!(
-            stdout(&o).contains(&format!("\"order\": \"{how}\"")),
-            "{}",
-            stdout(&o)
-        );
+        assert_eq!(json(&o)["order"], how, "{}", stdout(&o));
         files.push(std::fs::read(&hits).unwrap());
     }
     assert!(files[0] == files[1], "--order auto and given differ");
@@ -724,20 +722,23 @@ fn sizes_are_checked() {
         );
         assert!(!err.contains("panicked"), "{args:?}: {err}");
     }
-    // bench alone takes 0 as all cores.
-    let o = kdray(&[
-        "bench",
-        "needles",
-        "--rays",
-        "64",
-        "--repeat",
-        "1",
-        "--threads",
-        "0",
-        "--builders",
-        "median",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    // bench refuses --threads 0 as every other command does, and a bad
+    // scene before it prints the table's header.
+    let o = kdray(&["bench", "needles", "--rays", "64", "--threads", "0"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("--threads must be at least 1"),
+        "{}",
+        stderr(&o)
+    );
+    let o = kdray(&["bench", "needles", "/nonexistent/mesh.obj", "--rays", "64"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stdout(&o).is_empty(), "{}", stdout(&o));
+    assert!(
+        stderr(&o).contains("/nonexistent/mesh.obj"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 /// Mesh problems through the binary: faces of fewer than three corners, an
@@ -864,15 +865,12 @@ fn json_outputs_say_everything() {
     let tree = tmp("json.kdt").display().to_string();
     assert!(kdray(&["build", &obj, "-o", &tree]).status.success());
     let o = kdray(&["info", &tree, "--json"]);
-    assert!(stdout(&o).contains("\"valid\": true"), "{}", stdout(&o));
+    assert_eq!(json(&o)["valid"], true, "{}", stdout(&o));
     let junk = write(&tmp("json-junk.kdt"), b"junk");
     let o = kdray(&["info", &junk, "--json"]);
     assert_eq!(o.status.code(), Some(1));
-    let out = stdout(&o);
-    assert!(
-        out.contains("\"valid\": false") && out.contains("\"error\": \""),
-        "{out}"
-    );
+    let j = json(&o);
+    assert!(j["valid"] == false && j["error"].is_string(), "{j}");
     let rays = tmp("json.rays").display().to_string();
     assert!(
         kdray(&["rays", &obj, "-o", &rays, "--width", "8", "--height", "8"])
@@ -881,10 +879,10 @@ fn json_outputs_say_everything() {
     );
     let hits = tmp("json.hits").display().to_string();
     let o = kdray(&["trace", &tree, &rays, "-o", &hits, "--counts", "--json"]);
-    let out = stdout(&o);
+    let j = json(&o);
     assert!(
-        out.contains("\"nodes_per_ray\"") && out.contains("\"triangles_per_ray\""),
-        "{out}"
+        j["nodes_per_ray"].is_number() && j["triangles_per_ray"].is_number(),
+        "{j}"
     );
 }
 
@@ -965,4 +963,495 @@ fn sigint_ignored() -> bool {
             u64::from_str_radix(mask.trim(), 16).ok()
         })
         .is_some_and(|mask| mask & (1 << 1) != 0)
+}
+
+/// `kdray args` with its address space limited to `kib` KiB (`ulimit -v`).
+#[cfg(unix)]
+fn kdray_limited(kib: u64, args: &[&str]) -> Output {
+    Command::new("sh")
+        .arg("-c")
+        .arg(format!("ulimit -v {kib} && exec \"$0\" \"$@\""))
+        .arg(env!("CARGO_BIN_EXE_kdray"))
+        .args(args)
+        .output()
+        .expect("run kdray")
+}
+
+/// A binary PLY grid of `n` x `n` vertices, 2 (n-1)^2 triangles.
+fn grid_ply(n: u32) -> Vec<u8> {
+    let mut b = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        n * n,
+        2 * (n - 1) * (n - 1)
+    )
+    .into_bytes();
+    for i in 0..n {
+        for j in 0..n {
+            for c in [i as f32, j as f32, ((i * j) % 7) as f32] {
+                b.extend(c.to_le_bytes());
+            }
+        }
+    }
+    for i in 0..n - 1 {
+        for j in 0..n - 1 {
+            let a = i * n + j;
+            for t in [[a, a + 1, a + n], [a + 1, a + n + 1, a + n]] {
+                b.push(3);
+                t.iter().for_each(|v| b.extend(v.to_le_bytes()));
+            }
+        }
+    }
+    b
+}
+
+/// Memory that runs out (under `ulimit -v`) is an error naming what did
+/// not fit, status 1: never Rust's abort (134, "memory allocation of N
+/// bytes failed").
+#[cfg(unix)]
+#[test]
+fn memory_that_runs_out_is_an_error_not_an_abort() {
+    let dir = folder("oom");
+    let obj = write(&dir.join("q.obj"), QUAD_OBJ);
+    let out = dir.join("out.rays").display().to_string();
+    let big = ["--width", "16384", "--height", "16384"];
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            [&["rays", &obj, "-o", &out][..], &big].concat(),
+            "camera rays",
+        ),
+        (
+            [
+                &["rays", &obj, "-o", &out, "--kind", "camera-tiled"][..],
+                &big,
+            ]
+            .concat(),
+            "pixel coordinates",
+        ),
+        (
+            [&["rays", &obj, "-o", &out, "--kind", "shadow"][..], &big].concat(),
+            "camera rays",
+        ),
+        (
+            vec![
+                "rays",
+                &obj,
+                "-o",
+                &out,
+                "--kind",
+                "random",
+                "--count",
+                "268435456",
+            ],
+            "random rays",
+        ),
+    ];
+    for (args, what) in cases {
+        let o = kdray_limited(1_000_000, &args);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
+        assert!(
+            e.contains("out of memory") && e.contains(what),
+            "{args:?}: {e}"
+        );
+        assert!(!Path::new(&out).exists(), "{args:?}");
+    }
+    // A mesh whose build needs more than the limit (1.6 million
+    // triangles: about 440 MB resident at the build's peak on two
+    // threads, beside the ~300 MB of address space the process starts
+    // with): whichever allocation fails, the same clean error.
+    let ply = dir.join("grid.ply");
+    std::fs::write(&ply, grid_ply(901)).unwrap();
+    let tree = dir.join("grid.kdt").display().to_string();
+    // Two threads: on a machine of many cores, their stacks alone would
+    // take a share of the limit.
+    let o = kdray_limited(
+        500_000,
+        &[
+            "build",
+            &ply.display().to_string(),
+            "-o",
+            &tree,
+            "--threads",
+            "2",
+        ],
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("kdray: error: out of memory"), "{e}");
+    assert!(!e.contains("memory allocation of"), "{e}");
+    assert!(temporaries(&dir).is_empty(), "{:?}", temporaries(&dir));
+}
+
+/// `trace --first-hits K` writes K records a ray a part at a time: K x
+/// rays records (1.3 GB here) need not fit in memory (1 GB here).
+#[cfg(unix)]
+#[test]
+fn first_hits_stream_past_the_memory_limit() {
+    let dir = folder("stream");
+    let obj = write(&dir.join("q.obj"), QUAD_OBJ);
+    let tree = dir.join("q.kdt").display().to_string();
+    assert!(kdray(&["build", &obj, "-o", &tree]).status.success());
+    let n = 80_000;
+    let rays: Vec<[f32; 8]> = (0..n)
+        .map(|i| {
+            let x = ((i % 400) as f32 + 0.5) / 400.0;
+            [x, 0.3, 2.0, 0.0, 0.0, 0.0, -1.0, f32::INFINITY]
+        })
+        .collect();
+    let rays = write(&dir.join("many.rays"), &ray_bytes(&rays));
+    let o = kdray_limited(
+        1_000_000,
+        &[
+            "trace",
+            &tree,
+            &rays,
+            "-o",
+            "/dev/null",
+            "--first-hits",
+            "1024",
+            "--json",
+            "--threads",
+            "2",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = json(&o);
+    assert_eq!(j["rays"], n);
+    assert_eq!(j["first_hits"], 1024);
+    assert_eq!(j["hits"], n, "every ray hits the quad");
+    // The same records as in one part: a small run compared record by record.
+    let few = write(
+        &dir.join("few.rays"),
+        &std::fs::read(&rays).unwrap()[..32 * 3000],
+    );
+    let (a, b) = (dir.join("a.hits"), dir.join("b.hits"));
+    let run = |k: &str, out: &Path| {
+        let o = kdray(&[
+            "trace",
+            &tree,
+            &few,
+            "-o",
+            &out.display().to_string(),
+            "--first-hits",
+            k,
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        std::fs::read(out).unwrap()
+    };
+    let one = run("1", &a);
+    let many = run("1024", &b);
+    assert_eq!(many.len(), 3000 * 1024 * 16);
+    for (r, first) in one.chunks(16).enumerate() {
+        assert_eq!(first, &many[r * 1024 * 16..r * 1024 * 16 + 16], "ray {r}");
+    }
+}
+
+/// An output that is one of the command's inputs (the same file, also
+/// through a symlink or a hard link) is refused, and the input kept.
+#[test]
+fn an_output_over_an_input_is_refused() {
+    let dir = folder("apart");
+    let obj = write(&dir.join("victim.obj"), QUAD_OBJ);
+    let tree = dir.join("q.kdt").display().to_string();
+    assert!(kdray(&["build", &obj, "-o", &tree]).status.success());
+    let rays = write(
+        &dir.join("keep.rays"),
+        &ray_bytes(&[[0.25, 0.75, 2.0, 0.0, 0.0, 0.0, -1.0, f32::INFINITY]]),
+    );
+    let pts = write(&dir.join("p.pts"), &[0u8; 12 * 4]);
+    let mut names = vec![obj.clone(), rays.clone(), tree.clone(), pts.clone()];
+    #[cfg(unix)]
+    {
+        let link = dir.join("link.obj");
+        let _ = std::fs::remove_file(&link);
+        std::os::unix::fs::symlink(&obj, &link).unwrap();
+        let hard = dir.join("hard.rays");
+        let _ = std::fs::remove_file(&hard);
+        std::fs::hard_link(&rays, &hard).unwrap();
+        names.push(link.display().to_string());
+        names.push(hard.display().to_string());
+    }
+    let before: Vec<Vec<u8>> = names.iter().map(|n| std::fs::read(n).unwrap()).collect();
+    let link_obj = names.get(4).cloned().unwrap_or(obj.clone());
+    let hard_rays = names.get(5).cloned().unwrap_or(rays.clone());
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["build", &obj, "-o", &obj], &obj),
+        (vec!["build", &obj, "-o", &link_obj], &obj),
+        (vec!["trace", &tree, &rays, "-o", &rays], &rays),
+        (vec!["trace", &tree, &rays, "-o", &hard_rays], &rays),
+        (vec!["trace", &tree, &rays, "-o", &tree], &tree),
+        (vec!["render", &tree, "-o", &tree], &tree),
+        (vec!["rays", &obj, "-o", &obj], &obj),
+        (vec!["export-obj", &obj, "-o", &obj], &obj),
+        (vec!["build-points", &pts, "-o", &pts], &pts),
+        (vec!["knn", &pts, &pts, "-o", &pts], &pts),
+    ];
+    for (args, input) in cases {
+        let o = kdray(&args);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
+        assert!(
+            e.contains(&format!("is the input {input} (the same file)")),
+            "{args:?}: {e}"
+        );
+    }
+    let after: Vec<Vec<u8>> = names.iter().map(|n| std::fs::read(n).unwrap()).collect();
+    assert!(before == after, "an input changed");
+}
+
+/// A glTF (buffer in a data: URI) whose mesh, the unit quad in z = 0, two
+/// nodes place: as is, and moved by 2 in x.
+fn quad_gltf() -> Vec<u8> {
+    use base64::Engine as _;
+    let mut bin: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 1., 1., 0., 0., 1., 0.]
+        .iter()
+        .flat_map(|f| f.to_le_bytes())
+        .collect();
+    for i in [0u16, 1, 2, 0, 2, 3] {
+        bin.extend(i.to_le_bytes());
+    }
+    let uri = base64::engine::general_purpose::STANDARD.encode(&bin);
+    format!(
+        r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0, 1]}}],
+  "nodes": [{{"mesh": 0}}, {{"mesh": 0, "translation": [2, 0, 0]}}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1}}]}}],
+  "buffers": [{{"uri": "data:application/octet-stream;base64,{uri}", "byteLength": 60}}],
+  "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 48}}, {{"buffer": 0, "byteOffset": 48, "byteLength": 12}}],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]}},
+    {{"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"}}]}}"#
+    )
+    .into_bytes()
+}
+
+/// Each command reads the blob kinds it can and names the kind it
+/// cannot: never "invalid" for a valid blob of another kind.
+#[test]
+fn every_blob_kind_is_read_or_named() {
+    let dir = folder("kinds");
+    let gltf = write(&dir.join("quad.gltf"), &quad_gltf());
+    let scene = dir.join("scene.kdt").display().to_string();
+    let o = kdray(&["build", &gltf, "-o", &scene, "--instances"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let pts = write(&dir.join("p.pts"), &[0u8; 12 * 40]);
+    let cloud = dir.join("cloud.kdt").display().to_string();
+    assert!(kdray(&["build-points", &pts, "-o", &cloud])
+        .status
+        .success());
+    let rays = dir.join("s.rays").display().to_string();
+    let png = dir.join("s.png").display().to_string();
+
+    // info reads a point blob and prints its statistics.
+    let o = kdray(&["info", &cloud, "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = json(&o);
+    assert_eq!(
+        (j["valid"].clone(), j["kind"].clone()),
+        (true.into(), "points".into())
+    );
+    assert_eq!(
+        (j["points"].clone(), j["dim"].clone()),
+        (40.into(), 3.into())
+    );
+    let o = kdray(&["info", &cloud]);
+    assert!(
+        stdout(&o).contains("valid kdray point tree"),
+        "{}",
+        stdout(&o)
+    );
+
+    // rays reads a scene (camera and random rays)...
+    for kind in ["camera", "camera-tiled", "random"] {
+        let o = kdray(&[
+            "rays", &scene, "-o", &rays, "--kind", kind, "--width", "8", "--height", "8",
+        ]);
+        assert!(o.status.success(), "{kind}: {}", stderr(&o));
+    }
+    // ... and the others name what they were given.
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec!["rays", &scene, "-o", &rays, "--kind", "shadow"],
+            "this is a scene (instanced triangle trees); `kdray rays --kind shadow` takes a triangle tree",
+        ),
+        (
+            vec!["rays", &cloud, "-o", &rays],
+            "this is a point tree; `kdray rays` takes a mesh, a triangle tree or a scene",
+        ),
+        (
+            vec!["trace", &cloud, &rays, "-o", &png],
+            "this is a point tree; `kdray trace` takes a triangle tree or a scene",
+        ),
+        (
+            vec!["render", &cloud, "-o", &png],
+            "this is a point tree; `kdray render` takes a mesh, a triangle tree or a scene",
+        ),
+    ];
+    for (args, want) in cases {
+        let o = kdray(&args);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
+        assert!(e.contains(want) && !e.contains("invalid"), "{args:?}: {e}");
+    }
+}
+
+/// `trace` on a scene blob refuses the options it cannot honour, and its
+/// JSON has the fields of the mesh path's.
+#[test]
+fn trace_of_a_scene_honours_or_refuses_every_option() {
+    let dir = folder("scene-trace");
+    let gltf = write(&dir.join("quad.gltf"), &quad_gltf());
+    let scene = dir.join("scene.kdt").display().to_string();
+    let flat = dir.join("flat.kdt").display().to_string();
+    assert!(kdray(&["build", &gltf, "-o", &scene, "--instances"])
+        .status
+        .success());
+    assert!(kdray(&["build", &gltf, "-o", &flat]).status.success());
+    let rays = write(
+        &dir.join("r.rays"),
+        &ray_bytes(&[
+            [0.25, 0.75, 2.0, 0.0, 0.0, 0.0, -1.0, f32::INFINITY],
+            [2.5, 0.5, 2.0, 0.0, 0.0, 0.0, -1.0, f32::INFINITY],
+        ]),
+    );
+    let hits = dir.join("r.hits").display().to_string();
+    for (extra, want) in [
+        (&["--counts"][..], "no --counts"),
+        (&["--packet", "8"][..], "leave --packet at 1"),
+        (&["--order", "morton"][..], "instead of --order morton"),
+    ] {
+        let o = kdray(&[&["trace", &scene, &rays, "-o", &hits][..], extra].concat());
+        assert_eq!(o.status.code(), Some(1), "{extra:?}");
+        assert!(stderr(&o).contains(want), "{extra:?}: {}", stderr(&o));
+    }
+    let o = kdray(&["trace", &flat, &rays, "-o", &hits, "--json"]);
+    let mesh = json(&o);
+    let o = kdray(&["trace", &scene, &rays, "-o", &hits, "--json"]);
+    let scene_json = json(&o);
+    for key in mesh.as_object().unwrap().keys() {
+        assert!(
+            scene_json.get(key).is_some(),
+            "{key} missing from {scene_json}"
+        );
+    }
+    assert_eq!(scene_json["hits"], 2);
+    assert_eq!(scene_json["order"], "given");
+}
+
+/// The smaller rough edges: negative numbers as values, --max-depth past
+/// the kernel's stack, the fast builder's peak memory, demo's sample and
+/// folder, the top-level help, the glTF folder by name.
+#[test]
+fn small_rough_edges_are_smoothed() {
+    let dir = folder("rough");
+    let obj = write(&dir.join("q.obj"), QUAD_OBJ);
+    let png = dir.join("q.png").display().to_string();
+    let tree = dir.join("q.kdt").display().to_string();
+    // A negative number is a value, not a flag: refused for its range.
+    let o = kdray(&["render", &obj, "-o", &png, "--fov", "-10"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("--fov must be between 0 and 180 degrees, not -10"),
+        "{}",
+        stderr(&o)
+    );
+    let o = kdray(&["build", &obj, "-o", &tree, "--traversal-cost", "-1"]);
+    assert!(
+        stderr(&o).contains("--traversal-cost must be a positive number, not -1"),
+        "{}",
+        stderr(&o)
+    );
+    let o = kdray(&["build", &obj, "-o", &tree, "--max-depth", "65"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("--max-depth 65 is more than 64"),
+        "{}",
+        stderr(&o)
+    );
+    // Every builder reports the memory it worked in.
+    for builder in ["fast", "sah", "median"] {
+        let o = kdray(&["build", &obj, "-o", &tree, "--builder", builder, "--json"]);
+        let peak = json(&o)["peak_build_bytes_per_triangle"].as_f64().unwrap();
+        assert!(peak > 0.0, "{builder}: {peak}");
+    }
+    // demo: exactly the sample asked for (or none), one speed on one
+    // thread, and an --out-dir that is a file named as such.
+    let out = dir.join("demo").display().to_string();
+    let o = kdray(&[
+        "demo",
+        "--size",
+        "16",
+        "--brute-sample",
+        "200",
+        "--out-dir",
+        &out,
+    ]);
+    assert!(
+        stdout(&o).contains("brute force on 200 of those rays"),
+        "{}",
+        stdout(&o)
+    );
+    let o = kdray(&[
+        "demo",
+        "--size",
+        "16",
+        "--brute-sample",
+        "0",
+        "--out-dir",
+        &out,
+    ]);
+    assert!(
+        o.status.success() && stdout(&o).contains("skipped (--brute-sample 0)"),
+        "{}",
+        stdout(&o)
+    );
+    // On one core (taskset, where there is one) one speed, not the same twice.
+    let one_core = Command::new("taskset")
+        .args([
+            "-c",
+            "0",
+            env!("CARGO_BIN_EXE_kdray"),
+            "demo",
+            "--size",
+            "16",
+        ])
+        .args(["--brute-sample", "5", "--out-dir", &out])
+        .output();
+    if let Some(o) = one_core.ok().filter(|o| o.status.success()) {
+        let line = stdout(&o)
+            .lines()
+            .find(|l| l.starts_with("traced"))
+            .unwrap_or("")
+            .to_string();
+        assert_eq!(line.matches("Mrays/s").count(), 1, "{line}");
+    }
+    let o = kdray(&["demo", "--size", "16", "--out-dir", &obj]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("is a file, not a folder"),
+        "{}",
+        stderr(&o)
+    );
+    // The help's first line describes the tool, not the crate.
+    let o = kdray(&["--help"]);
+    let help = stdout(&o);
+    assert!(help.starts_with("kdray: build k-d trees"), "{help}");
+    let o = kdray(&["build-points", "--help"]);
+    assert!(!stdout(&o).contains("lecture"), "{}", stdout(&o));
+    // A glTF beside the working folder names its folder in full.
+    let gltf = br#"{"asset": {"version": "2.0"}, "scenes": [{"nodes": []}], "buffers": [{"uri": "../x.bin", "byteLength": 4}]}"#;
+    write(&dir.join("out.gltf"), gltf);
+    let o = Command::new(env!("CARGO_BIN_EXE_kdray"))
+        .args(["build", "out.gltf", "-o", "out.kdt"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    let canonical = std::fs::canonicalize(&dir).unwrap();
+    assert!(
+        stderr(&o).contains(&format!(
+            "outside the glTF's folder {} ",
+            canonical.display()
+        )),
+        "{}",
+        stderr(&o)
+    );
 }

@@ -458,9 +458,119 @@ fn gltf_points_and_lines_are_reported() {
         all.contains("mesh 0 primitive 2: a LINES primitive"),
         "{all}"
     );
+    // Two nodes use mesh 0: each skipped primitive is reported once.
+    assert_eq!(m.skipped.len(), 2, "{all}");
     // A file of points only has no triangles: an error.
     let only = gltf_json(Some(&data_uri(&bin)), bin.len(), pos_len)
         .replace(r#", "indices": 1}"#, r#", "mode": 0}"#);
     let e = error("points.gltf", only.as_bytes());
     assert!(e.contains("no triangles"), "{e}");
+}
+
+#[test]
+fn gltf_buffers_must_be_regular_files_of_their_byte_length() {
+    use kdray_tools::mesh::{load_with, LoadOptions};
+    let (bin, pos_len) = gltf_bin();
+    let dir = tmp("special");
+    std::fs::create_dir_all(dir.join("folder.bin")).unwrap();
+    let load_uri = |uri: &str, byte_len: usize, allow: bool| {
+        let p = dir.join("special.gltf");
+        std::fs::write(&p, gltf_json(Some(uri), byte_len, pos_len)).unwrap();
+        let options = LoadOptions {
+            allow_outside_uris: allow,
+        };
+        // On a thread: a loader that blocks on a FIFO fails here, not hangs.
+        let (send, recv) = std::sync::mpsc::channel();
+        std::thread::spawn(move || send.send(load_with(&p, &options).map(|m| m.triangles)));
+        recv.recv_timeout(std::time::Duration::from_secs(20))
+            .unwrap_or_else(|_| panic!("{uri}: the loader hangs"))
+    };
+    let refused = |uri: &str, byte_len: usize, allow: bool, what: &str| {
+        let e = load_uri(uri, byte_len, allow).expect_err(uri).to_string();
+        eprintln!("{e}");
+        assert!(
+            e.contains("special.gltf")
+                && e.contains("buffer 0")
+                && e.contains(uri)
+                && e.contains(what),
+            "{uri}: {e}"
+        );
+    };
+    refused(
+        "folder.bin",
+        bin.len(),
+        false,
+        "is a folder, not a regular file",
+    );
+    #[cfg(unix)]
+    {
+        let fifo = dir.join("pipe.bin");
+        let _ = std::fs::remove_file(&fifo);
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if made.is_ok_and(|s| s.success()) {
+            refused(
+                "pipe.bin",
+                bin.len(),
+                false,
+                "is a FIFO, not a regular file",
+            );
+        }
+        if std::path::Path::new("/dev/zero").exists() {
+            refused("/dev/zero", bin.len(), true, "is a character device");
+        }
+    }
+    // A file longer than its byteLength: refused after byteLength + 1 bytes.
+    let mut long = bin.clone();
+    long.extend([0u8; 100]);
+    std::fs::write(dir.join("long.bin"), &long).unwrap();
+    refused(
+        "long.bin",
+        bin.len(),
+        false,
+        "more than the buffer's byteLength",
+    );
+    // Exactly byteLength, and shorter (the old rule), still as before.
+    std::fs::write(dir.join("exact.bin"), &bin).unwrap();
+    assert_eq!(
+        load_uri("exact.bin", bin.len(), false).unwrap(),
+        gltf_expected()
+    );
+    refused("exact.bin", bin.len() + 4, false, "declares byteLength");
+}
+
+#[test]
+fn unsupported_gltf_features_are_called_unsupported() {
+    let (bin, pos_len) = gltf_bin();
+    let base = gltf_json(Some(&data_uri(&bin)), bin.len(), pos_len);
+    for ext in ["KHR_draco_mesh_compression", "KHR_mesh_quantization"] {
+        let json = base.replacen(
+            "{\n  \"asset\"",
+            &format!("{{\n  \"extensionsUsed\": [\"{ext}\"], \"extensionsRequired\": [\"{ext}\"],\n  \"asset\""),
+            1,
+        );
+        let e = error("ext.gltf", json.as_bytes());
+        assert!(
+            e.contains(&format!("requires the glTF extension {ext}")) && e.contains("unsupported"),
+            "{e}"
+        );
+        assert!(!e.contains("malformed"), "{e}");
+    }
+    // A sparse accessor (index 1 of the positions replaced).
+    let sparse = base.replace(
+        r#""count": 5, "type": "VEC3", "min": [0,0,0], "max": [1,1,1]}"#,
+        r#""count": 5, "type": "VEC3", "min": [0,0,0], "max": [1,1,1], "sparse": {"count": 1, "indices": {"bufferView": 1, "componentType": 5123}, "values": {"bufferView": 0}}}"#,
+    );
+    assert_ne!(sparse, base);
+    let e = error("sparse.gltf", sparse.as_bytes());
+    assert!(e.contains("sparse accessors are unsupported"), "{e}");
+}
+
+#[test]
+fn a_ply_double_past_f32_is_out_of_range() {
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1e300 0 0\n0 1 0\n3 0 1 2\n";
+    let e = error("huge.ply", ply.as_bytes());
+    assert!(
+        e.contains("huge.ply:") && e.contains("1e300 is out of f32 range"),
+        "{e}"
+    );
 }

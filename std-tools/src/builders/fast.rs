@@ -38,8 +38,9 @@
 //! middle splits close in on the geometry a level at a time.
 
 use super::cost::CostModel;
-use super::BuiltTree;
+use super::{BuildMonitor, BuiltTree};
 use kdray_kernel::{Axis, Bounds, Node};
+use std::mem::size_of;
 use wide::{f32x4, i32x4};
 
 /// The fast builder's parameters.
@@ -115,7 +116,21 @@ struct Cell {
 /// list their boxes in index order.
 #[must_use]
 pub fn build(boxes: &[Bounds], bounds: Bounds, p: &FastParams) -> BuiltTree {
-    let tree = depth_first(boxes, bounds, p);
+    build_monitored(boxes, bounds, p, &BuildMonitor::new())
+}
+
+/// [`build`], telling `monitor` its working memory: the items (with the
+/// room reserved for the below sides) and the cells still to build, at
+/// their peak.
+pub(super) fn build_monitored(
+    boxes: &[Bounds],
+    bounds: Bounds,
+    p: &FastParams,
+    monitor: &BuildMonitor,
+) -> BuiltTree {
+    let (tree, peak) = depth_first_measured(boxes, bounds, p);
+    monitor.allocated(peak);
+    monitor.freed(peak);
     BuiltTree {
         nodes: super::layout::into_line_groups(&tree.nodes),
         ..tree
@@ -123,8 +138,9 @@ pub fn build(boxes: &[Bounds], bounds: Bounds, p: &FastParams) -> BuiltTree {
 }
 
 /// [`build`]'s tree in the depth-first layout (child pairs of the `k`-th
-/// interior node at `2k + 1`).
-fn depth_first(boxes: &[Bounds], bounds: Bounds, p: &FastParams) -> BuiltTree {
+/// interior node at `2k + 1`), and the bytes its item and cell lists held
+/// at most.
+fn depth_first_measured(boxes: &[Bounds], bounds: Bounds, p: &FastParams) -> (BuiltTree, usize) {
     let mut items: Vec<Item> = boxes
         .iter()
         .zip(0u32..)
@@ -211,7 +227,8 @@ fn depth_first(boxes: &[Bounds], bounds: Bounds, p: &FastParams) -> BuiltTree {
             depth,
         });
     }
-    out
+    let peak = items.capacity() * size_of::<Item>() + todo.capacity() * size_of::<Cell>();
+    (out, peak)
 }
 
 /// Splits `cur` at `plane` on axis `A`: the above side compacted in place
@@ -707,7 +724,7 @@ pub(super) mod tests {
                 depth: 24,
                 shrink_bins,
             };
-            let tree = depth_first(&boxes, bounds, &p);
+            let tree = depth_first_measured(&boxes, bounds, &p).0;
             assert!(tree.nodes.len() > 100, "the boxes are split");
             for (i, b) in boxes.iter().enumerate() {
                 if b.min[0] > b.max[0] {

@@ -377,7 +377,7 @@ fn build_in_pool(
                 depth: limits.depth,
                 shrink_bins: true,
             };
-            return fast::build(&hit, bounds, &p);
+            return fast::build_monitored(&hit, bounds, &p, monitor);
         }
         BuilderKind::Sah | BuilderKind::Sweep => {
             let sweep_max = if kind == BuilderKind::Sah {

@@ -29,7 +29,7 @@ pub(crate) struct Args {
     /// Builders to run (comma-separated; default: all of them).
     #[arg(long, value_delimiter = ',')]
     builders: Vec<String>,
-    /// Build threads (default, or 0: all cores). Tracing is single-threaded.
+    /// Build threads (default: all cores). Tracing is single-threaded.
     #[arg(long)]
     threads: Option<usize>,
     /// Camera rays (a square image) and random rays per scene.
@@ -89,8 +89,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             .map(|n| BuilderKind::parse(n))
             .collect::<Result<Vec<_>, _>>()?
     };
-    // --threads 0 is rayon's "all cores" here, as the builders take it.
-    check_threads(a.threads.filter(|&n| n > 0))?;
+    check_threads(a.threads)?;
     if a.rays as u64 > MAX_PIXELS {
         return Err(format!("--rays {} is more than {MAX_PIXELS}", a.rays).into());
     }
@@ -100,12 +99,18 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         threads: a.threads,
         ..BuildParams::default()
     };
+    // Every scene is loaded before the table starts: a bad one is an
+    // error, not a header with nothing under it.
+    let scenes = a
+        .scenes
+        .iter()
+        .map(|spec| scene(spec, a.mesh_args))
+        .collect::<Result<Vec<_>, _>>()?;
     say!(
         "| scene | tris | builder | build ms | SAH cost | SAH cost (W&H) | nodes | depth | refs/tri | bytes/tri | peak build B/tri | camera Mrays/s | random Mrays/s |"
     );
     say!("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
-    for spec in &a.scenes {
-        let (name, s) = scene(spec, a.mesh_args)?;
+    for (name, s) in &scenes {
         let tris = &s.triangles;
         let camera = Camera::framing(&s.focus).rays(side, side);
         let random = random_rays(&s.focus, a.rays, 7);

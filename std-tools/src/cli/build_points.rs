@@ -65,8 +65,8 @@ pub(crate) struct Args {
     output: PathBuf,
     #[command(flatten)]
     shape: Shape,
-    /// Points per leaf (the lecture's m; default 32 below 8-D, 64 from
-    /// 8-D on).
+    /// The most points a leaf holds (default 32 below 8-D, 64 from 8-D
+    /// on): larger leaves make a smaller tree and test more points a query.
     #[arg(long)]
     leaf_size: Option<usize>,
     /// Print one JSON object instead of the summary.
@@ -75,7 +75,7 @@ pub(crate) struct Args {
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
-    io::check_output(&a.output)?;
+    io::check_output_apart(&a.output, &[&a.points])?;
     if a.leaf_size == Some(0) {
         return Err("--leaf-size must be at least 1".into());
     }
@@ -99,14 +99,14 @@ impl ShapedCommand for Args {
         io::write_bytes(&a.output, blob.as_bytes())?;
         if a.json {
             let j = JsonObject::default()
-                .num("points", points.len() as f64)
-                .num("dim", D as f64)
-                .str("scalar", S::NAME)
-                .num("nodes", built.nodes.len() as f64)
-                .num("max_depth", f64::from(built.max_depth))
-                .num("bytes", blob.as_bytes().len() as f64)
-                .num("build_ms", build_ms)
-                .str(
+                .with("points", points.len())
+                .with("dim", D)
+                .with("scalar", S::NAME)
+                .with("nodes", built.nodes.len())
+                .with("max_depth", built.max_depth)
+                .with("bytes", blob.as_bytes().len())
+                .with("build_ms", build_ms)
+                .with(
                     "timing",
                     "build_ms excludes reading the points and writing the blob",
                 );

@@ -28,15 +28,16 @@ pub(crate) struct Args {
     #[arg(long)]
     threads: Option<usize>,
     /// Cost of a traversal step in the SAH (default: BuildParams' 1.0).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     traversal_cost: Option<f32>,
     /// Cost of a triangle test in the SAH (default: BuildParams' 0.5).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     intersection_cost: Option<f32>,
     /// Fraction of cost forgiven for an empty side (default: BuildParams' 0.2).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     empty_bonus: Option<f32>,
-    /// Deepest leaf (default 8 + 1.3 log2 n, at most 64).
+    /// Deepest leaf (default 8 + 1.3 log2 n, at most 64; a larger value is
+    /// refused).
     #[arg(long)]
     max_depth: Option<u32>,
     /// Print one JSON object instead of the summary.
@@ -53,9 +54,16 @@ pub(crate) struct Args {
 
 pub(crate) fn run(a: &Args) -> CmdResult {
     // Every argument is checked before the mesh is read and built.
-    io::check_output(&a.output)?;
+    io::check_output_apart(&a.output, &[&a.mesh])?;
     let kind = BuilderKind::parse(&a.builder)?;
     check_threads(a.threads)?;
+    if let Some(d) = a.max_depth.filter(|&d| d > kdray_kernel::MAX_DEPTH) {
+        return Err(format!(
+            "--max-depth {d} is more than {}, the deepest tree the kernel's traversal stack holds",
+            kdray_kernel::MAX_DEPTH
+        )
+        .into());
+    }
     let d = BuildParams::default();
     let params = BuildParams {
         threads: a.threads,
@@ -99,16 +107,16 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     io::write_bytes(&a.output, blob.as_bytes())?;
     if a.json {
         let j = JsonObject::default()
-            .str("mesh", &a.mesh.display().to_string())
-            .str("output", &a.output.display().to_string())
-            .str("builder", kind.name())
-            .num("load_ms", load_ms)
-            .num("build_ms", build_ms)
-            .num(
+            .with("mesh", a.mesh.display().to_string())
+            .with("output", a.output.display().to_string())
+            .with("builder", kind.name())
+            .with("load_ms", load_ms)
+            .with("build_ms", build_ms)
+            .with(
                 "peak_build_bytes_per_triangle",
                 monitor.peak_bytes() as f64 / tris.len().max(1) as f64,
             )
-            .str(
+            .with(
                 "timing",
                 "build_ms excludes reading and parsing the mesh and writing the blob",
             );
@@ -151,15 +159,15 @@ fn build_instanced(a: &Args, kind: BuilderKind, params: &BuildParams) -> CmdResu
     let tris: usize = g.meshes.iter().map(Vec::len).sum();
     if a.json {
         let j = JsonObject::default()
-            .str("mesh", &a.mesh.display().to_string())
-            .str("output", &a.output.display().to_string())
-            .str("kind", "scene")
-            .num("load_ms", load_ms)
-            .num("build_ms", build_ms)
-            .num("meshes", g.meshes.len() as f64)
-            .num("mesh_triangles", tris as f64)
-            .num("instances", parts.instances.len() as f64)
-            .num("bytes", blob.as_bytes().len() as f64);
+            .with("mesh", a.mesh.display().to_string())
+            .with("output", a.output.display().to_string())
+            .with("kind", "scene")
+            .with("load_ms", load_ms)
+            .with("build_ms", build_ms)
+            .with("meshes", g.meshes.len())
+            .with("mesh_triangles", tris)
+            .with("instances", parts.instances.len())
+            .with("bytes", blob.as_bytes().len());
         say!("{}", j.finish());
     } else {
         say!(

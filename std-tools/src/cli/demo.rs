@@ -43,6 +43,13 @@ impl Default for Args {
 pub(crate) fn run(a: &Args) -> CmdResult {
     // The folder and the ray count are checked before the work.
     check_image(a.size, a.size, "--size")?;
+    if a.out_dir.exists() && !a.out_dir.is_dir() {
+        return Err(format!(
+            "--out-dir {}: is a file, not a folder (the pictures go in a folder)",
+            a.out_dir.display()
+        )
+        .into());
+    }
     std::fs::create_dir_all(&a.out_dir)
         .map_err(|e| format!("{}: cannot create: {e}", a.out_dir.display()))?;
     let scene = teapot_in_stadium();
@@ -73,23 +80,49 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     });
     let all = t.elapsed().as_secs_f64();
     let hit = hits.iter().filter(|h| h.is_hit()).count();
+    let threads = pool.current_num_threads();
+    let on_all = if threads == 1 {
+        String::new()
+    } else {
+        format!(
+            ", {:.2} Mrays/s on {}",
+            rays.len() as f64 / all / 1e6,
+            plural(threads, "thread")
+        )
+    };
     say!(
-        "traced {}x{} camera rays ({hit} hit): {:.2} Mrays/s on 1 thread, {:.2} Mrays/s on {}",
+        "traced {}x{} camera rays ({hit} hit): {:.2} Mrays/s on 1 thread{on_all}",
         a.size,
         a.size,
         rays.len() as f64 / one / 1e6,
-        rays.len() as f64 / all / 1e6,
-        plural(pool.current_num_threads(), "thread")
     );
 
-    // Brute force over every triangle on a sample: the tree must agree bit
-    // for bit, and the ratio of times is what the tree buys.
-    let step = (rays.len() / a.brute_sample.max(1)).max(1);
-    let sample: Vec<_> = rays.iter().step_by(step).collect();
+    // Exactly --brute-sample rays (or all of them), spread evenly.
+    let n = a.brute_sample.min(rays.len());
+    if n == 0 {
+        say!("brute force: skipped (--brute-sample 0)");
+    } else {
+        check_brute(&tree, &scene.triangles, &rays, n, one)?;
+    }
+    let camera = Camera::framing(&scene.focus);
+    draw(&tree, camera, &pool, &a.out_dir)
+}
+
+/// Brute force over every triangle on `n` of `rays`, spread evenly: the
+/// tree must agree bit for bit, and the ratio of times (`one`: the tree's
+/// seconds for all the rays on one thread) is what the tree buys.
+fn check_brute(
+    tree: &TriangleTree<'_>,
+    triangles: &[kdray_kernel::Triangle],
+    rays: &[kdray_kernel::Ray],
+    n: usize,
+    one: f64,
+) -> CmdResult {
+    let sample: Vec<_> = (0..n).map(|i| &rays[i * rays.len() / n]).collect();
     let t = Instant::now();
     let brute: Vec<Hit> = sample
         .iter()
-        .map(|r| closest_hit_brute(&scene.triangles, r))
+        .map(|r| closest_hit_brute(triangles, r))
         .collect();
     let brute_s = t.elapsed().as_secs_f64() / sample.len().max(1) as f64;
     let tree_s = one / rays.len().max(1) as f64;
@@ -109,8 +142,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     if mismatches > 0 {
         return Err(format!("{mismatches} rays disagree with brute force").into());
     }
-    let camera = Camera::framing(&scene.focus);
-    draw(&tree, camera, &pool, &a.out_dir)
+    Ok(())
 }
 
 /// The picture and the heatmap of the scene, 640x480, on `pool`, written

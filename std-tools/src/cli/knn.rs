@@ -6,8 +6,8 @@ use super::build_points::{dispatch, Shape, ShapedCommand};
 use super::json::JsonObject;
 use super::{plural, thread_pool, CmdResult};
 use kdray_kernel::{Neighbour, Scalar};
-use kdray_tools::io;
 use kdray_tools::points::{build_points, check_point, knn_all, PointParams};
+use kdray_tools::{io, memory};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -27,8 +27,8 @@ pub(crate) struct Args {
     /// index then the squared distance as f32, or f64 with --f64).
     #[arg(short, long)]
     output: PathBuf,
-    /// Points per leaf (the lecture's m; default 32 below 8-D, 64 from
-    /// 8-D on).
+    /// The most points a leaf holds (default 32 below 8-D, 64 from 8-D
+    /// on): larger leaves make a smaller tree and test more points a query.
     #[arg(long)]
     leaf_size: Option<usize>,
     /// Build and answer this many times; timings are the best pass.
@@ -43,7 +43,7 @@ pub(crate) struct Args {
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
-    io::check_output(&a.output)?;
+    io::check_output_apart(&a.output, &[&a.points, &a.queries])?;
     if a.k == 0 || a.reps == 0 || a.leaf_size == Some(0) {
         return Err("-k, --reps and --leaf-size must be at least 1".into());
     }
@@ -52,13 +52,14 @@ pub(crate) fn run(a: &Args) -> CmdResult {
 
 /// The `.knn` records: per neighbour its index, then its squared distance,
 /// both little-endian.
-fn knn_bytes<S: Scalar>(out: &[Neighbour<S>]) -> Vec<u8> {
-    let mut bytes = Vec::with_capacity(out.len() * (4 + S::BYTES as usize));
+fn knn_bytes<S: Scalar>(out: &[Neighbour<S>]) -> Result<Vec<u8>, memory::OutOfMemory> {
+    let size = out.len().saturating_mul(4 + S::BYTES as usize);
+    let mut bytes = memory::with_capacity(size, "bytes of the .knn file")?;
     for n in out {
         bytes.extend_from_slice(&n.index.to_le_bytes());
         bytes.extend_from_slice(bytemuck::bytes_of(&n.d2));
     }
-    bytes
+    Ok(bytes)
 }
 
 impl ShapedCommand for Args {
@@ -95,16 +96,7 @@ fn run_shaped<const D: usize, S: Scalar>(a: &Args) -> CmdResult {
         .len()
         .checked_mul(a.k)
         .ok_or("queries times k overflows")?;
-    let mut out = Vec::new();
-    out.try_reserve_exact(len).map_err(|_| {
-        format!(
-            "{} queries x k = {} neighbours ({} bytes) cannot be allocated",
-            queries.len(),
-            a.k,
-            len as f64 * 8.0
-        )
-    })?;
-    out.resize(len, Neighbour::NONE);
+    let mut out = memory::filled(len, Neighbour::NONE, "neighbour records (queries x k)")?;
     let (mut build_s, mut query_s) = (f64::INFINITY, f64::INFINITY);
     pool.install(|| -> Result<(), String> {
         for _ in 0..a.reps {
@@ -121,22 +113,22 @@ fn run_shaped<const D: usize, S: Scalar>(a: &Args) -> CmdResult {
         }
         Ok(())
     })?;
-    io::write_bytes(&a.output, &knn_bytes(&out))?;
+    io::write_bytes(&a.output, &knn_bytes(&out)?)?;
     let qps = queries.len() as f64 / query_s.max(1e-12);
     if a.json {
         let j = JsonObject::default()
-            .num("points", points.len() as f64)
-            .num("queries", queries.len() as f64)
-            .num("k", a.k as f64)
-            .num("dim", D as f64)
-            .str("scalar", S::NAME)
-            .num("threads", pool.current_num_threads() as f64)
-            .num("leaf_size", params.leaf_size_for(D) as f64)
-            .num("reps", a.reps as f64)
-            .num("build_ms", build_s * 1e3)
-            .num("seconds", query_s)
-            .num("queries_per_s", qps)
-            .str(
+            .with("points", points.len())
+            .with("queries", queries.len())
+            .with("k", a.k)
+            .with("dim", D)
+            .with("scalar", S::NAME)
+            .with("threads", pool.current_num_threads())
+            .with("leaf_size", params.leaf_size_for(D))
+            .with("reps", a.reps)
+            .with("build_ms", build_s * 1e3)
+            .with("seconds", query_s)
+            .with("queries_per_s", qps)
+            .with(
                 "timing",
                 "build_ms and seconds exclude reading the point files and writing the output; best of reps",
             );

@@ -22,7 +22,7 @@ mod rays;
 mod render;
 mod report;
 #[cfg(unix)]
-#[allow(unsafe_code)] // three C library calls, each with its SAFETY argument
+#[allow(unsafe_code)] // one query of a signal's action, with its SAFETY argument
 mod signals;
 mod sort_rays;
 mod trace;
@@ -30,9 +30,11 @@ mod trace;
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
-/// kdray: k-d tree ray tracing. With no command, runs the built-in demo.
+/// kdray: build k-d trees over meshes and point sets, then trace rays and
+/// answer nearest-neighbour queries against them. With no command, runs
+/// the built-in demo.
 #[derive(Parser, Debug)]
-#[command(name = "kdray", version, about, long_about = None)]
+#[command(name = "kdray", version, long_about = None)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
@@ -176,6 +178,21 @@ fn check_image(width: u32, height: u32, names: &str) -> Result<(), String> {
         ));
     }
     Ok(())
+}
+
+/// The error for a valid blob of a kind `command` does not take: "this
+/// is a point tree; `kdray rays` takes a triangle tree or a scene".
+fn wrong_kind(
+    path: &std::path::Path,
+    kind: kdray_tools::blob::BlobKind,
+    command: &str,
+    takes: &str,
+) -> String {
+    format!(
+        "{}: this is {}; `kdray {command}` takes {takes}",
+        path.display(),
+        kind.describe()
+    )
 }
 
 /// How the commands that read a mesh read it.

@@ -4,11 +4,12 @@
 
 use super::render::{tree_blob, View};
 use super::trace::parse_width;
-use super::{CmdResult, MeshArgs, MAX_PIXELS};
+use super::{wrong_kind, CmdResult, MeshArgs, MAX_PIXELS};
 use kdray_kernel::{Batch, Hit, PacketWidth, Ray};
-use kdray_tools::camera::random_rays;
-use kdray_tools::io;
-use kdray_tools::render::{shadow_ray, tile_size, tiled_pixels, RenderParams};
+use kdray_tools::blob::BlobKind;
+use kdray_tools::camera::random_ray_iter;
+use kdray_tools::render::{shadow_ray, tile_size, tiled_pixels_into, RenderParams};
+use kdray_tools::{io, memory};
 use std::path::PathBuf;
 
 /// Which rays `kdray rays` makes.
@@ -56,7 +57,7 @@ pub(crate) struct Args {
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
-    io::check_output(&a.output)?;
+    io::check_output_apart(&a.output, &[&a.scene])?;
     a.view.check()?;
     if a.count == 0 || a.count as u64 > MAX_PIXELS {
         return Err(format!(
@@ -66,36 +67,72 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         .into());
     }
     let blob = tree_blob(&a.scene, a.mesh_args)?;
-    let tree = blob
-        .tree()
-        .map_err(|e| format!("{}: invalid tree blob: {e}", a.scene.display()))?;
-    let scene = tree.bounds();
+    let tree = || {
+        blob.tree()
+            .map_err(|e| format!("{}: invalid tree blob: {e}", a.scene.display()))
+    };
+    // A scene blob frames and aims rays as a flattened mesh does; only
+    // shadow rays need one tree's triangles (to shade the camera hits).
+    let scene = match blob.kind() {
+        BlobKind::Scene if a.kind == Kind::Shadow => {
+            return Err(format!(
+                "{}: this is {}; `kdray rays --kind shadow` takes a triangle tree or a mesh (build it without --instances)",
+                a.scene.display(),
+                BlobKind::Scene.describe()
+            )
+            .into())
+        }
+        BlobKind::Scene => blob
+            .scene()
+            .map_err(|e| format!("{}: invalid scene blob: {e}", a.scene.display()))?
+            .bounds(),
+        BlobKind::Points => {
+            return Err(wrong_kind(&a.scene, BlobKind::Points, "rays", "a mesh, a triangle tree or a scene").into())
+        }
+        BlobKind::Triangles | BlobKind::Unknown => tree()?.bounds(),
+    };
     let camera = a.view.camera(&scene);
     let (w, h) = (a.view.width, a.view.height);
+    // Every buffer is reserved before it is filled: an image or count
+    // past the memory there is gets an error naming it, not an abort.
+    let pixels = w as usize * h as usize;
     let rays: Vec<Ray> = match a.kind {
-        Kind::Camera => camera.rays(w, h),
-        Kind::CameraTiled => tiled_pixels(w, h, tile_size(a.packet))
-            .into_iter()
-            .map(|[x, y]| camera.ray(x, y, w, h))
-            .collect(),
-        Kind::Random => random_rays(&scene, a.count, a.seed),
+        Kind::Camera => memory::collected(pixels, camera.ray_iter(w, h), "camera rays")?,
+        Kind::CameraTiled => {
+            let mut order = memory::with_capacity(pixels, "pixel coordinates")?;
+            tiled_pixels_into(w, h, tile_size(a.packet), &mut order);
+            let rays = order.iter().map(|&[x, y]| camera.ray(x, y, w, h));
+            memory::collected(pixels, rays, "tiled camera rays")?
+        }
+        Kind::Random => memory::collected(
+            a.count,
+            random_ray_iter(&scene, a.count, a.seed),
+            "random rays",
+        )?,
         Kind::Shadow => {
+            let tree = tree()?;
             let params = RenderParams::new(camera, w, h);
-            let primary = camera.rays(w, h);
-            let mut hits = vec![Hit::MISS; primary.len()];
+            let mut rays = memory::collected(pixels, camera.ray_iter(w, h), "camera rays")?;
+            let mut hits = memory::filled(pixels, Hit::MISS, "camera hits")?;
             tree.closest_hits(
-                &primary,
+                &rays,
                 &mut hits,
                 Batch {
                     width: PacketWidth::One,
                     ..Batch::default()
                 },
             );
-            primary
-                .iter()
-                .zip(&hits)
-                .filter_map(|(r, hit)| shadow_ray(tree.triangles(), r, hit, &params))
-                .collect()
+            // Each shadow ray overwrites a camera ray already used (there
+            // are at most as many), so no third buffer is needed.
+            let mut kept = 0;
+            for i in 0..rays.len() {
+                if let Some(s) = shadow_ray(tree.triangles(), &rays[i], &hits[i], &params) {
+                    rays[kept] = s;
+                    kept += 1;
+                }
+            }
+            rays.truncate(kept);
+            rays
         }
     };
     io::write_records(&a.output, &rays)?;

@@ -3,13 +3,13 @@
 
 use super::progress::counted_bar;
 use super::trace::parse_width;
-use super::{check_image, plural, thread_pool, CmdResult, MeshArgs};
+use super::{check_image, plural, thread_pool, wrong_kind, CmdResult, MeshArgs};
 use glam::Vec3;
 use kdray_kernel::{Bounds, PacketWidth};
-use kdray_tools::blob::{write_triangle_tree, Blob};
+use kdray_tools::blob::{write_triangle_tree, Blob, BlobKind};
 use kdray_tools::builders::{build, BuildParams, BuilderKind};
 use kdray_tools::camera::Camera;
-use kdray_tools::instances::{is_scene_blob, SceneTracer};
+use kdray_tools::instances::SceneTracer;
 use kdray_tools::io;
 use kdray_tools::render::{bands, render, render_heatmap, RenderParams, TreeTracer};
 use std::path::{Path, PathBuf};
@@ -27,7 +27,8 @@ pub(crate) struct Args {
     #[command(flatten)]
     view: View,
     /// Render the traversal cost per pixel (nodes visited + triangles
-    /// tested, single rays) instead of the shaded picture.
+    /// tested, single rays) instead of the shaded picture. The PNG is 32
+    /// pixels taller than --height: the legend strip under the image.
     #[arg(long)]
     heatmap: bool,
     /// Rays per packet: 1, 4 (2x2 pixel tiles), 8 (4x2 tiles) or 16 (4x4
@@ -63,7 +64,7 @@ pub(super) struct View {
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     target: Option<Vec3>,
     /// Vertical field of view in degrees.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     fov: Option<f32>,
     /// Image width in pixels.
     #[arg(long, default_value_t = 640)]
@@ -128,12 +129,22 @@ pub(super) fn tree_blob(
 
 pub(crate) fn run(a: &Args) -> CmdResult {
     // Every argument is checked before the scene is loaded or built.
-    io::check_output(&a.output)?;
+    io::check_output_apart(&a.output, &[&a.input])?;
     a.view.check()?;
     let pool = thread_pool(a.threads)?;
     let blob = tree_blob(&a.input, a.mesh_args)?;
-    if is_scene_blob(blob.as_bytes()) {
-        return render_scene(a, &pool, &blob);
+    match blob.kind() {
+        BlobKind::Scene => return render_scene(a, &pool, &blob),
+        BlobKind::Points => {
+            return Err(wrong_kind(
+                &a.input,
+                BlobKind::Points,
+                "render",
+                "a mesh, a triangle tree or a scene",
+            )
+            .into())
+        }
+        BlobKind::Triangles | BlobKind::Unknown => {}
     }
     let tree = blob
         .tree()
@@ -146,7 +157,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let image = if a.heatmap {
         let bar = counted_bar(u64::from(height));
         let h = pool.install(|| render_heatmap(&tree, &params, &|| bar.inc(1)));
-        bar.finish_and_clear();
+        bar.finish();
         say!(
             "cost per pixel (nodes visited + triangles tested): min {}, mean {:.1}, max {}",
             h.min,
@@ -161,7 +172,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             width: a.packet,
         };
         let img = pool.install(|| render(&tracer, &params, &|| bar.inc(1)));
-        bar.finish_and_clear();
+        bar.finish();
         img
     };
     let seconds = t.elapsed().as_secs_f64();
@@ -203,7 +214,7 @@ fn render_scene(a: &Args, pool: &rayon::ThreadPool, blob: &Blob) -> CmdResult {
     let t = Instant::now();
     let bar = counted_bar(bands(height, PacketWidth::One));
     let image = pool.install(|| render(&tracer, &params, &|| bar.inc(1)));
-    bar.finish_and_clear();
+    bar.finish();
     let seconds = t.elapsed().as_secs_f64();
     image.write_png(&a.output)?;
     say!(

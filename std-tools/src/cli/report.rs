@@ -6,18 +6,18 @@ use kdray_tools::stats::TreeStats;
 
 /// Adds the statistics to a JSON object.
 pub(crate) fn stats_json(j: JsonObject, s: &TreeStats) -> JsonObject {
-    j.num("triangles", s.triangles as f64)
-        .num("nodes", s.nodes as f64)
-        .num("leaves", s.leaves as f64)
-        .num("empty_leaves", s.empty_leaves as f64)
-        .num("max_depth", f64::from(s.max_depth))
-        .num("mean_leaf_depth", s.mean_leaf_depth)
-        .num("mean_leaf_lines", s.mean_leaf_lines)
-        .num("refs_per_triangle", s.refs_per_triangle)
-        .num("mean_leaf_size", s.mean_leaf_size)
-        .num("sah_cost", s.sah_cost)
-        .num("bytes", s.bytes as f64)
-        .num("bytes_per_triangle", s.bytes_per_triangle)
+    j.with("triangles", s.triangles)
+        .with("nodes", s.nodes)
+        .with("leaves", s.leaves)
+        .with("empty_leaves", s.empty_leaves)
+        .with("max_depth", s.max_depth)
+        .with("mean_leaf_depth", s.mean_leaf_depth)
+        .with("mean_leaf_lines", s.mean_leaf_lines)
+        .with("refs_per_triangle", s.refs_per_triangle)
+        .with("mean_leaf_size", s.mean_leaf_size)
+        .with("sah_cost", s.sah_cost)
+        .with("bytes", s.bytes)
+        .with("bytes_per_triangle", s.bytes_per_triangle)
 }
 
 /// Prints the statistics for a person.

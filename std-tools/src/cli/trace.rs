@@ -1,12 +1,13 @@
 //! `kdray trace TREE RAYS -o HITS`: trace a ray file, write a hit file.
 
 use super::json::JsonObject;
-use super::{plural, thread_pool, CmdResult};
+use super::{plural, thread_pool, wrong_kind, CmdResult};
 use kdray_kernel::{Hit, Ray, Treelet};
-use kdray_tools::blob::Blob;
-use kdray_tools::instances::{first_hits_scene, is_scene_blob, scene_offsets, trace_scene};
-use kdray_tools::io;
+use kdray_tools::blob::{Blob, BlobKind};
+use kdray_tools::instances::{first_hits_scene, scene_offsets, trace_scene};
 use kdray_tools::trace::{first_hits_into, trace_into, Order, PacketWidth, Query};
+use kdray_tools::{io, memory};
+use std::io::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -69,25 +70,35 @@ fn parse_order(s: &str) -> Result<Order, String> {
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
-    io::check_output(&a.output)?;
+    io::check_output_apart(&a.output, &[&a.tree, &a.rays])?;
     if a.repeat == 0 {
         return Err("--repeat must be at least 1".into());
     }
     let pool = thread_pool(a.threads)?;
     let blob = Blob::read(&a.tree).map_err(|e| format!("{}: {e}", a.tree.display()))?;
-    if is_scene_blob(blob.as_bytes()) {
-        return trace_scene_blob(a, &pool, &blob);
+    match blob.kind() {
+        BlobKind::Scene => return trace_scene_blob(a, &pool, &blob),
+        BlobKind::Points => {
+            return Err(wrong_kind(
+                &a.tree,
+                BlobKind::Points,
+                "trace",
+                "a triangle tree or a scene",
+            )
+            .into())
+        }
+        BlobKind::Triangles | BlobKind::Unknown => {}
     }
     let tree = blob
         .tree()
         .map_err(|e| format!("{}: invalid tree blob: {e}", a.tree.display()))?;
     let rays: Vec<Ray> = io::read_records(&a.rays, "ray")?;
     if let Some(k) = a.first_hits {
-        return trace_first_hits(a, &pool, rays.len(), k, |hits| {
-            first_hits_into(&tree, &rays, hits, k)
+        return trace_first_hits(a, &pool, &rays, k, |r, hits| {
+            first_hits_into(&tree, r, hits, k)
         });
     }
-    let mut hits = vec![Hit::MISS; rays.len()];
+    let mut hits = memory::filled(rays.len(), Hit::MISS, "hit records")?;
     let query = if a.any_hit {
         Query::Any
     } else {
@@ -128,22 +139,21 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let mrays = rays.len() as f64 / seconds.max(1e-12) / 1e6;
     if a.json {
         let mut j = JsonObject::default()
-            .num("rays", rays.len() as f64)
-            .num("hits", hit_count as f64)
-            .num("threads", pool.current_num_threads() as f64)
-            .str("query", if a.any_hit { "any" } else { "closest" })
-            .num("packet", a.packet.lanes() as f64)
-            .str("order", if sorted { "morton" } else { "given" })
-            .str("isa", kdray_kernel::isa().name())
-            .num("repeat", f64::from(a.repeat))
-            .num("seconds", seconds)
-            .num("mrays_per_s", mrays)
-            .str(
-                "timing",
-                "seconds: the best pass, excluding reading the tree and rays and writing the hits",
-            );
+            .with("rays", rays.len())
+            .with("hits", hit_count)
+            .with("threads", pool.current_num_threads())
+            .with("query", if a.any_hit { "any" } else { "closest" })
+            .with("packet", a.packet.lanes())
+            .with("order", if sorted { "morton" } else { "given" })
+            .with("isa", kdray_kernel::isa().name())
+            .with("repeat", a.repeat)
+            .with("seconds", seconds)
+            .with("mrays_per_s", mrays)
+            .with("timing", TIMING);
         if let Some((nodes, tris)) = per_ray {
-            j = j.num("nodes_per_ray", nodes).num("triangles_per_ray", tris);
+            j = j
+                .with("nodes_per_ray", nodes)
+                .with("triangles_per_ray", tris);
         }
         say!("{}", j.finish());
     } else {
@@ -169,16 +179,26 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     Ok(())
 }
 
+/// What `seconds` in the JSON output covers.
+const TIMING: &str =
+    "seconds: the best pass, excluding reading the tree and rays and writing the hits";
+
 /// The most records a ray `--first-hits` writes.
 const MAX_FIRST_HITS: usize = 1024;
 
-/// `kdray trace --first-hits K`: `k` records a ray.
+/// The hit records `--first-hits` holds in memory at once (16 MB): the
+/// output is written in parts of this many, so K x rays records need not
+/// fit (1024 x 1M rays would be 16 GB).
+const FIRST_HITS_PART: usize = 1 << 20;
+
+/// `kdray trace --first-hits K`: `k` records a ray, traced and written a
+/// part of the rays at a time.
 fn trace_first_hits(
     a: &Args,
     pool: &rayon::ThreadPool,
-    rays: usize,
+    rays: &[Ray],
     k: usize,
-    fill: impl Fn(&mut [Hit]) -> usize + Send + Sync,
+    fill: impl Fn(&[Ray], &mut [Hit]) -> usize + Send + Sync,
 ) -> CmdResult {
     if !(1..=MAX_FIRST_HITS).contains(&k) {
         return Err(format!("--first-hits {k}: must be 1 to {MAX_FIRST_HITS}").into());
@@ -186,33 +206,51 @@ fn trace_first_hits(
     if a.packet != PacketWidth::One {
         return Err("--first-hits traces single rays: leave --packet at 1".into());
     }
-    let slots = rays.saturating_mul(k);
-    let mut hits = Vec::new();
-    hits.try_reserve_exact(slots).map_err(|_| {
-        format!(
-            "--first-hits {k}: no memory for {slots} hit records ({} rays)",
-            rays
-        )
-    })?;
-    hits.resize(slots, Hit::MISS);
-    let mut found = 0;
-    let seconds = best_of(a.repeat, || found = pool.install(|| fill(&mut hits)));
-    io::write_records(&a.output, &hits)?;
-    let hit_rays = hits
-        .chunks(k)
-        .filter(|h| h[0].prim != kdray_kernel::MISS)
-        .count();
+    if a.counts {
+        return Err(
+            "--first-hits has no --counts: count the closest hits (without --first-hits)".into(),
+        );
+    }
+    if a.order == Order::Morton {
+        return Err("--first-hits traces the rays in the file's order: sort the file with `kdray sort-rays` instead of --order morton".into());
+    }
+    let part = (FIRST_HITS_PART / k).max(1);
+    let mut hits = memory::filled(part.min(rays.len()) * k, Hit::MISS, "first-hit records")?;
+    let mut out = io::Output::create(&a.output)?;
+    let (mut seconds, mut found, mut hit_rays) = (f64::INFINITY, 0, 0);
+    for pass in 0..a.repeat {
+        let (mut pass_seconds, mut pass_found) = (0.0, 0);
+        for r in rays.chunks(part) {
+            let h = &mut hits[..r.len() * k];
+            let t = Instant::now();
+            pass_found += pool.install(|| fill(r, h));
+            pass_seconds += t.elapsed().as_secs_f64();
+            if pass == 0 {
+                out.write_all(bytemuck::cast_slice(h))
+                    .map_err(|e| out.error(&e))?;
+                hit_rays += h
+                    .chunks(k)
+                    .filter(|h| h[0].prim != kdray_kernel::MISS)
+                    .count();
+            }
+        }
+        seconds = seconds.min(pass_seconds);
+        found = pass_found;
+    }
+    out.commit()?;
+    let rays = rays.len();
     let mrays = rays as f64 / seconds.max(1e-12) / 1e6;
     if a.json {
         let j = JsonObject::default()
-            .num("rays", rays as f64)
-            .num("hits", hit_rays as f64)
-            .num("first_hits", k as f64)
-            .num("hits_found", found as f64)
-            .num("threads", pool.current_num_threads() as f64)
-            .num("repeat", f64::from(a.repeat))
-            .num("seconds", seconds)
-            .num("mrays_per_s", mrays);
+            .with("rays", rays)
+            .with("hits", hit_rays)
+            .with("first_hits", k)
+            .with("hits_found", found)
+            .with("threads", pool.current_num_threads())
+            .with("repeat", a.repeat)
+            .with("seconds", seconds)
+            .with("mrays_per_s", mrays)
+            .with("timing", TIMING);
         say!("{}", j.finish());
     } else {
         say!(
@@ -233,14 +271,27 @@ fn trace_scene_blob(a: &Args, pool: &rayon::ThreadPool, blob: &Blob) -> CmdResul
     let scene = blob
         .scene()
         .map_err(|e| format!("{}: invalid scene blob: {e}", a.tree.display()))?;
+    // What the mesh path offers and a scene does not is refused, not
+    // ignored: its rays are traced one at a time, in the file's order,
+    // and it has no counted walk.
+    let refuse = |what: &str| format!("{}: a scene blob {what}", a.tree.display());
+    if a.counts {
+        return Err(refuse("has no --counts (they count one tree's nodes): trace the flattened mesh's tree (kdray build without --instances) for them").into());
+    }
+    if a.packet != PacketWidth::One {
+        return Err(refuse("traces single rays: leave --packet at 1").into());
+    }
+    if a.order == Order::Morton {
+        return Err(refuse("traces its rays in the file's order: sort the file with `kdray sort-rays` instead of --order morton").into());
+    }
     let offsets = scene_offsets(&scene);
     let rays: Vec<Ray> = io::read_records(&a.rays, "ray")?;
     if let Some(k) = a.first_hits {
-        return trace_first_hits(a, pool, rays.len(), k, |hits| {
-            first_hits_scene(&scene, &offsets, &rays, hits, k)
+        return trace_first_hits(a, pool, &rays, k, |r, hits| {
+            first_hits_scene(&scene, &offsets, r, hits, k)
         });
     }
-    let mut hits = vec![Hit::MISS; rays.len()];
+    let mut hits = memory::filled(rays.len(), Hit::MISS, "hit records")?;
     let seconds = best_of(a.repeat, || {
         pool.install(|| trace_scene(&scene, &offsets, &rays, &mut hits, a.any_hit));
     });
@@ -249,13 +300,18 @@ fn trace_scene_blob(a: &Args, pool: &rayon::ThreadPool, blob: &Blob) -> CmdResul
     let mrays = rays.len() as f64 / seconds.max(1e-12) / 1e6;
     if a.json {
         let j = JsonObject::default()
-            .num("rays", rays.len() as f64)
-            .num("hits", hit_count as f64)
-            .num("threads", pool.current_num_threads() as f64)
-            .str("query", if a.any_hit { "any" } else { "closest" })
-            .num("instances", scene.instances().len() as f64)
-            .num("seconds", seconds)
-            .num("mrays_per_s", mrays);
+            .with("rays", rays.len())
+            .with("hits", hit_count)
+            .with("threads", pool.current_num_threads())
+            .with("query", if a.any_hit { "any" } else { "closest" })
+            .with("packet", 1)
+            .with("order", "given")
+            .with("isa", kdray_kernel::isa().name())
+            .with("repeat", a.repeat)
+            .with("seconds", seconds)
+            .with("mrays_per_s", mrays)
+            .with("timing", TIMING)
+            .with("instances", scene.instances().len());
         say!("{}", j.finish());
     } else {
         say!(

@@ -109,6 +109,18 @@ fn walk(
 ) -> Result<(), MeshError> {
     let err = |msg: String| MeshError::new(path, None, msg);
     let bytes = std::fs::read(path).map_err(|e| err(format!("cannot open: {e}")))?;
+    // Extensions first: the validating parse calls a file that needs one
+    // "malformed", where it is well formed and only unsupported.
+    if let Ok(raw) = gltf::Gltf::from_slice_without_validation(&bytes) {
+        let required: Vec<&str> = raw.document.extensions_required().collect();
+        if !required.is_empty() {
+            return Err(err(format!(
+                "requires the glTF extension{} {}, which kdray does not read (unsupported: every extension, such as KHR_draco_mesh_compression and KHR_mesh_quantization; docs/formats.md)",
+                if required.len() == 1 { "" } else { "s" },
+                required.join(", ")
+            )));
+        }
+    }
     let g = gltf::Gltf::from_slice(&bytes).map_err(|e| err(format!("malformed glTF: {e}")))?;
     let buffers = g
         .document
@@ -157,9 +169,13 @@ fn add_mesh(
             let n = prim
                 .get(&gltf::Semantic::Positions)
                 .map_or(0, |a| a.count());
-            skipped.push(format!(
+            let note = format!(
                 "{at}: a {kind} primitive ({n} vertices) skipped: only triangles are traced"
-            ));
+            );
+            // Once per mesh, however many nodes use it.
+            if !skipped.contains(&note) {
+                skipped.push(note);
+            }
             continue;
         }
         add_primitive(path, &at, &prim, buffers, m, tris)?;
@@ -209,9 +225,11 @@ fn buffer_file(gltf: &Path, uri: &str, allow_outside: bool) -> Result<PathBuf, S
         return Ok(file);
     }
     let refuse = || {
+        // The folder by its full name: "." says nothing in a message.
+        let named = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
         format!(
             "URI {uri:?} points outside the glTF's folder {} (pass --allow-outside-uris to read it)",
-            dir.display()
+            named.display()
         )
     };
     let rel = Path::new(&decoded);
@@ -269,7 +287,8 @@ fn load_buffer(
         }
         gltf::buffer::Source::Uri(uri) => {
             let file = buffer_file(path, uri, options.allow_outside_uris).map_err(&err)?;
-            std::fs::read(&file).map_err(|e| err(format!("cannot read {}: {e}", file.display())))?
+            read_buffer_file(&file, b.length())
+                .map_err(|e| err(format!("URI {uri:?} ({}): {e}", file.display())))?
         }
     };
     if data.len() < b.length() {
@@ -280,6 +299,75 @@ fn load_buffer(
         )));
     }
     Ok(data)
+}
+
+/// At most `byte_length` bytes of a buffer's file. Only a regular file is
+/// read: it is opened without blocking (a FIFO with no writer would wait
+/// forever) and its type checked on the open file, so a FIFO, a device
+/// (`/dev/zero` never ends) or a folder is refused by name. At most
+/// `byte_length + 1` bytes are read: a longer file is refused, as a PLY
+/// with data after its last element is.
+fn read_buffer_file(file: &Path, byte_length: usize) -> Result<Vec<u8>, String> {
+    use std::io::Read as _;
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::custom_flags(&mut options, libc::O_NONBLOCK);
+    let f = options
+        .open(file)
+        .map_err(|e| format!("cannot read: {e}"))?;
+    let meta = f.metadata().map_err(|e| format!("cannot read: {e}"))?;
+    if !meta.is_file() {
+        return Err(format!(
+            "is {}, not a regular file: a buffer must be a file",
+            file_type_name(&meta.file_type())
+        ));
+    }
+    let limit = byte_length.saturating_add(1);
+    let expect = usize::try_from(meta.len()).map_or(limit, |n| n.min(limit));
+    let mut data =
+        crate::memory::with_capacity(expect, "buffer bytes").map_err(|e| e.to_string())?;
+    f.take(limit as u64)
+        .read_to_end(&mut data)
+        .map_err(|e| format!("cannot read: {e}"))?;
+    if data.len() > byte_length {
+        return Err(format!(
+            "the file holds {} bytes, more than the buffer's byteLength {byte_length}",
+            meta.len()
+        ));
+    }
+    if data.len() < byte_length {
+        return Err(format!(
+            "the file holds {} bytes but the buffer declares byteLength {byte_length}",
+            data.len()
+        ));
+    }
+    Ok(data)
+}
+
+/// "a folder", "a FIFO", ... for a file that is not a regular file.
+fn file_type_name(t: &std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt as _;
+        if t.is_fifo() {
+            return "a FIFO";
+        }
+        if t.is_char_device() {
+            return "a character device";
+        }
+        if t.is_block_device() {
+            return "a block device";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    if t.is_dir() {
+        "a folder"
+    } else {
+        "another kind of file"
+    }
 }
 
 /// Appends the triangles of one primitive, transformed by `m`.
@@ -386,7 +474,9 @@ fn elements<'b>(
 ) -> Result<impl Iterator<Item = &'b [u8]>, String> {
     let a = acc.index();
     if acc.sparse().is_some() {
-        return Err(format!("accessor {a}: sparse accessors are not supported"));
+        return Err(format!(
+            "accessor {a}: sparse accessors are unsupported (docs/formats.md): store the values whole"
+        ));
     }
     let view = acc
         .view()

@@ -216,6 +216,20 @@ fn parse_ply(path: &Path, bytes: &[u8]) -> Result<Vec<Triangle>, MeshError> {
                 ));
             }
             if is_vertex {
+                // A finite double past f32's range would become infinite:
+                // named here, not as a "non-finite" triangle later.
+                if let Some(c) = p
+                    .iter()
+                    .find(|c| c.is_finite() && !(**c as f32).is_finite())
+                {
+                    return Err(at(
+                        line,
+                        format!(
+                            "vertex coordinate {c:e} is out of f32 range (at most {:e} in size)",
+                            f32::MAX
+                        ),
+                    ));
+                }
                 vertices.push(p.map(|c| c as f32));
             }
             if is_face {

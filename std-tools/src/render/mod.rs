@@ -139,15 +139,21 @@ fn tile_pixels(width: u32, [x0, y0]: [u32; 2], (tw, rows): (u32, u32), out: &mut
 /// bottom edges), left to right, bands of tile rows top to bottom, each
 /// tile row by row. A ray file in this order traces as one packet per tile.
 #[must_use]
-pub fn tiled_pixels(width: u32, height: u32, (tw, th): (u32, u32)) -> Vec<[u32; 2]> {
+pub fn tiled_pixels(width: u32, height: u32, tile: (u32, u32)) -> Vec<[u32; 2]> {
     let mut out = Vec::with_capacity(width as usize * height as usize);
+    tiled_pixels_into(width, height, tile, &mut out);
+    out
+}
+
+/// [`tiled_pixels`] appended to `out` (for a caller that reserves their
+/// room itself).
+pub fn tiled_pixels_into(width: u32, height: u32, (tw, th): (u32, u32), out: &mut Vec<[u32; 2]>) {
     for y0 in (0..height).step_by(th.max(1) as usize) {
         let rows = th.min(height - y0);
         for x0 in (0..width).step_by(tw.max(1) as usize) {
-            tile_pixels(width, [x0, y0], (tw, rows), &mut out);
+            tile_pixels(width, [x0, y0], (tw, rows), out);
         }
     }
-    out
 }
 
 /// The shadow ray `render` traces from where `ray` hit (`hit`, a triangle

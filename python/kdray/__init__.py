@@ -52,7 +52,7 @@ def _array(a: Any, name: str) -> np.ndarray:
     """``a`` as a numeric numpy array (never written), or a clear error."""
     try:
         arr = np.asarray(a)
-    except Exception as e:  # ragged lists and the like
+    except (ValueError, TypeError) as e:  # ragged lists and the like
         raise ValueError(f"{name}: not an array of numbers: {e}") from None
     if arr.dtype.kind not in "fiu":
         raise ValueError(f"{name}: expected a float or integer array, got dtype {arr.dtype}")
@@ -139,9 +139,10 @@ def _rays(
 
 def _ray_splits(splits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Open3D's ``ray_splits`` and ``ray_ids`` of a hit list's ``splits``."""
-    counts = np.diff(splits.astype(np.int64))
+    starts = splits.astype(np.int64)
+    counts = starts[1:] - starts[:-1]
     ray_ids = np.repeat(np.arange(len(counts), dtype=np.uint32), counts)
-    return splits.astype(np.int64), ray_ids
+    return starts, ray_ids
 
 
 def _reduce(obj: Any, protocol: int, rebuild: Any) -> tuple[Any, tuple[Any, ...]]:
@@ -212,7 +213,7 @@ class _RayQueries:
     ) -> np.ndarray:
         """Whether each ray ``(..., 6)`` hits anything in ``[tnear, tfar]``: bool, of its leading shape."""
         r, lead = _rays(rays, None, None, tnear, tfar)
-        return self._occluded(r, _nthreads(nthreads), packet).reshape(lead)  # type: ignore[no-any-return]
+        return self._occluded(r, _nthreads(nthreads), packet).reshape(lead)
 
     def _occluded(self, rays: np.ndarray, nthreads: int, packet: int) -> np.ndarray:
         raise NotImplementedError
@@ -221,7 +222,7 @@ class _RayQueries:
         """How many triangles each ray ``(..., 6)`` crosses (each once): int32, of its leading shape."""
         r, lead = _rays(rays, None, None, 0.0, np.inf)
         splits = self._tree.hits(r, _nthreads(nthreads))[0]
-        return np.diff(splits).astype(np.int32).reshape(lead)
+        return np.diff(splits).astype(np.int32).reshape(lead)  # type: ignore[no-any-return]
 
     def list_intersections(self, rays: npt.ArrayLike, nthreads: int = 0) -> dict[str, np.ndarray]:
         """Every hit of every ray, in Open3D's CSR form.
@@ -501,7 +502,7 @@ class KDTree:
 
     def to_bytes(self) -> bytes:
         """The blob."""
-        return self._tree.to_bytes()  # type: ignore[no-any-return]
+        return self._tree.to_bytes()
 
     def save(self, path: str | os.PathLike[str]) -> None:
         """Writes the blob to ``path`` (a temporary file renamed into place)."""
@@ -510,12 +511,12 @@ class KDTree:
     @property
     def n(self) -> int:
         """How many points."""
-        return self._tree.n  # type: ignore[no-any-return]
+        return self._tree.n
 
     @property
     def m(self) -> int:
         """Their dimension."""
-        return self._tree.dim  # type: ignore[no-any-return]
+        return self._tree.dim
 
     @property
     def dtype(self) -> np.dtype[Any]:
@@ -525,7 +526,7 @@ class KDTree:
     @property
     def data(self) -> np.ndarray:
         """The points, ``(n, m)``, in input order (rebuilt from the tree: a new array)."""
-        return self._tree.data()  # type: ignore[no-any-return]
+        return self._tree.data()
 
     def _queries(self, x: npt.ArrayLike) -> tuple[np.ndarray, tuple[int, ...]]:
         q = _array(x, "x")

@@ -1,19 +1,21 @@
 # The compiled layer (python/src). Hand-written; checked by `python -m mypy.stubtest kdray`.
 # The public API is kdray/__init__.py; these calls take arrays it has shaped and typed.
 from os import PathLike
-from typing import Any, final
+from typing import Any, TypeAlias, final
 
 import numpy as np
 import numpy.typing as npt
+
+__all__ = ["MAX_COORD", "MAX_DIM", "BlobError", "PointTree", "Scene", "TriangleTree"]
 
 MAX_COORD: float
 MAX_DIM: int
 
 class BlobError(ValueError): ...
 
-_F32 = npt.NDArray[np.float32]
-_U32 = npt.NDArray[np.uint32]
-_U64 = npt.NDArray[np.uint64]
+_F32: TypeAlias = npt.NDArray[np.float32]
+_U32: TypeAlias = npt.NDArray[np.uint32]
+_U64: TypeAlias = npt.NDArray[np.uint64]
 
 @final
 class TriangleTree:

@@ -65,12 +65,12 @@ def scatter(tree: Any) -> Any:
         client = get_client()
     except ValueError:
         return tree
-    return client.scatter(tree, broadcast=True, hash=False)
+    return client.scatter(tree, broadcast=True, hash=False)  # type: ignore[no-untyped-call]
 
 
 def _rows(x: Any, width: int, name: str) -> Any:
     """``x`` as a 2-D dask array of ``width`` columns in one chunk."""
-    arr = da.asarray(x)
+    arr = da.asarray(x)  # type: ignore[no-untyped-call]
     if arr.ndim != 2 or arr.shape[1] != width:
         raise ValueError(f"{name}: expected a 2-D dask array of shape (N, {width}), got {arr.shape}")
     if len(arr.chunks[1]) != 1:

@@ -10,9 +10,9 @@ import kdray
 
 da = pytest.importorskip("dask.array")
 distributed = pytest.importorskip("distributed")
-import dask  # noqa: E402
+import dask
 
-import kdray.dask as kd  # noqa: E402
+import kdray.dask as kd
 
 
 def inputs() -> tuple[kdray.TriangleTree, np.ndarray, kdray.KDTree, np.ndarray]:
@@ -45,13 +45,17 @@ def test_local_scheduler() -> None:
 def test_two_worker_processes() -> None:
     from distributed import Client, LocalCluster
 
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        with Client(cluster):
-            check(*inputs())
+    with (
+        LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
+        Client(cluster),
+    ):
+        check(*inputs())
 
 
 def test_wrong_arrays_are_refused() -> None:
-    tree, rays, kd_tree, x = inputs()
+    tree, _, kd_tree, _ = inputs()
     with pytest.raises(ValueError, match="rays"):
         kd.cast_rays(tree, da.zeros((10, 5)))
     with pytest.raises(TypeError, match="tree"):

@@ -62,7 +62,7 @@ def test_distance_upper_bound_and_missing_neighbours(dtype: type) -> None:
     tree, ref = kdray.KDTree(data), cKDTree(data.astype(np.float64))
     for ub in (0.02, 0.05, 0.1):
         d, i = tree.query(x, k=5, distance_upper_bound=ub)
-        sd, si = ref.query(x.astype(np.float64), k=5, distance_upper_bound=ub)
+        sd, _ = ref.query(x.astype(np.float64), k=5, distance_upper_bound=ub)
         assert np.all((d < ub) | np.isinf(d))
         np.testing.assert_array_equal(np.isinf(d), i == tree.n)
         # Away from the bound itself, the same neighbours are found.
@@ -152,5 +152,5 @@ def test_integer_data_is_float64_and_eps_is_exact() -> None:
     data = np.arange(30).reshape(10, 3)
     tree = kdray.KDTree(data)
     assert tree.dtype == np.float64
-    d, i = tree.query([[0, 1, 2.2]], k=2, eps=0.5)
+    _, i = tree.query([[0, 1, 2.2]], k=2, eps=0.5)
     np.testing.assert_array_equal(i, [[0, 1]])

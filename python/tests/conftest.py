@@ -28,13 +28,14 @@ def shared_meshes() -> Path | None:
 
 
 def kdray_cli() -> Path | None:
-    """The ``kdray`` command-line tool: ``KDRAY_BIN``, else the repository's release or debug build."""
+    """The ``kdray`` command-line tool: ``KDRAY_BIN``, else the repository's newest build."""
     env = os.environ.get("KDRAY_BIN")
     if env:
         return Path(env)
-    for p in (REPO / "target" / "release" / "kdray", REPO / "target" / "debug" / "kdray"):
-        if p.is_file():
-            return p
+    builds = [REPO / "target" / b / "kdray" for b in ("release", "debug")]
+    builds = [p for p in builds if p.is_file()]
+    if builds:
+        return max(builds, key=lambda p: p.stat().st_mtime)
     found = shutil.which("kdray")
     return Path(found) if found else None
 

@@ -7,7 +7,7 @@ use crate::held::{blob_error, Bytes};
 use crate::pools;
 use kdray_kernel::{Neighbour, PointShape, PointTreeN, Scalar};
 use kdray_tools::blob::write_point_tree;
-use kdray_tools::points::{build_points, knn_all, PointParams};
+use kdray_tools::points::{build_points, PointParams};
 use numpy::PyUntypedArrayMethods;
 use numpy::{Element, PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::{PyOSError, PyValueError};
@@ -39,6 +39,9 @@ pub(crate) const MAX_DIM: usize = 16;
 
 /// A blob's alignment for a point tree (8 covers `f64` coordinates).
 const ALIGN: usize = 8;
+
+/// Queries per parallel task of `knn` (as the tools' `knn_all`).
+const KNN_CHUNK: usize = 256;
 
 /// Queries per parallel task of `within`.
 const WITHIN_CHUNK: usize = 64;
@@ -138,21 +141,23 @@ fn knn<'py, const D: usize, S: Scalar + Element + FromF64>(
             PyValueError::new_err(format!("k: no memory for {m} queries x {k} neighbours"))
         })?;
         out.resize(len, Neighbour::<S>::NONE);
-        pools::install(workers, || {
-            if max_d2 == S::INFINITY {
-                knn_all(&t, queries, k, &mut out);
-            } else {
-                // `knn_all` over a bounded search: the same chunking.
-                out.par_chunks_mut(k * 256)
-                    .zip(queries.par_chunks(256))
-                    .for_each(|(out, qs)| {
-                        for (o, q) in out.chunks_exact_mut(k).zip(qs) {
-                            let found = t.knn_within(*q, max_d2, o);
-                            o[found..].fill(Neighbour::NONE);
-                        }
-                    });
+        // `knn_all`'s loop (the tools'), over `knn_within` for the bound;
+        // on the calling thread for one worker or one task's worth.
+        let answer = |out: &mut [Neighbour<S>], qs: &[[S; D]]| {
+            for (o, q) in out.chunks_exact_mut(k).zip(qs) {
+                let found = t.knn_within(*q, max_d2, o);
+                o[found..].fill(Neighbour::NONE);
             }
-        })?;
+        };
+        if workers == 1 || m <= KNN_CHUNK {
+            answer(&mut out, queries);
+        } else {
+            pools::install(workers, || {
+                out.par_chunks_mut(k * KNN_CHUNK)
+                    .zip(queries.par_chunks(KNN_CHUNK))
+                    .for_each(|(o, qs)| answer(o, qs));
+            })?;
+        }
         let d2: Vec<S> = out.par_iter().map(|nb| nb.d2).collect();
         let index: Vec<i64> = out
             .par_iter()
@@ -202,33 +207,39 @@ fn within<'py, const D: usize, S: Scalar + Element + FromF64>(
     }
     let t = view::<D, S>(tree.bytes.as_slice())?;
     let (splits, indices) = py.detach(|| {
-        pools::install(workers, || {
-            let parts: Vec<(Vec<u64>, Vec<i64>)> = queries
-                .par_chunks(WITHIN_CHUNK)
-                .zip(r2.par_chunks(WITHIN_CHUNK))
-                .map(|(qs, rs)| {
-                    let (mut counts, mut found) = (Vec::with_capacity(qs.len()), Vec::new());
-                    for (q, &r) in qs.iter().zip(rs) {
-                        let start = found.len();
-                        t.for_each_within(*q, r, |nb| found.push(i64::from(nb.index)));
-                        found[start..].sort_unstable();
-                        counts.push((found.len() - start) as u64);
-                    }
-                    (counts, found)
-                })
-                .collect();
-            let mut splits = Vec::with_capacity(queries.len() + 1);
-            splits.push(0u64);
-            let mut indices = Vec::new();
-            for (counts, found) in parts {
-                for c in counts {
-                    let last = splits.last().copied().unwrap_or(0);
-                    splits.push(last + c);
-                }
-                indices.extend_from_slice(&found);
+        // Each query's indices, ascending, after the chunk's earlier ones.
+        let answer = |(qs, rs): (&[[S; D]], &[S])| {
+            let (mut counts, mut found) = (Vec::with_capacity(qs.len()), Vec::new());
+            for (q, &r) in qs.iter().zip(rs) {
+                let start = found.len();
+                t.for_each_within(*q, r, |nb| found.push(i64::from(nb.index)));
+                found[start..].sort_unstable();
+                counts.push((found.len() - start) as u64);
             }
-            (splits, indices)
-        })
+            (counts, found)
+        };
+        let parts: Vec<(Vec<u64>, Vec<i64>)> = if workers == 1 || queries.len() <= WITHIN_CHUNK {
+            vec![answer((queries, r2))]
+        } else {
+            pools::install(workers, || {
+                queries
+                    .par_chunks(WITHIN_CHUNK)
+                    .zip(r2.par_chunks(WITHIN_CHUNK))
+                    .map(answer)
+                    .collect()
+            })?
+        };
+        let mut splits = Vec::with_capacity(queries.len() + 1);
+        splits.push(0u64);
+        let mut indices = Vec::new();
+        for (counts, found) in parts {
+            for c in counts {
+                let last = splits.last().copied().unwrap_or(0);
+                splits.push(last + c);
+            }
+            indices.extend_from_slice(&found);
+        }
+        Ok::<_, PyErr>((splits, indices))
     })?;
     Ok((
         PyArray1::from_vec(py, splits),

@@ -6,6 +6,7 @@
 //! `tfar`), which is read in place; hits come back as the Open3D-named
 //! arrays, each allocated once.
 
+use crate::pools;
 use kdray_kernel::{Hit, Ray, Triangle};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
@@ -41,32 +42,49 @@ pub(crate) type CastArrays<'py> = (
     Bound<'py, PyAny>,
 );
 
-/// Splits closest-hit records into the arrays of `cast_rays`, the normal of
-/// each hit read from `normal_of(prim)`.
+/// `f` of every item: on the calling thread for a batch of at most
+/// [`SERIAL_MAX`], else on `nthreads` threads (0: all cores).
+pub(crate) fn map_all<T: Sync, R: Send>(
+    items: &[T],
+    nthreads: usize,
+    f: impl Fn(&T) -> R + Sync + Send,
+) -> PyResult<Vec<R>> {
+    if items.len() <= SERIAL_MAX {
+        return Ok(items.iter().map(f).collect());
+    }
+    pools::install(nthreads, || {
+        items.par_iter().with_min_len(SERIAL_MAX).map(f).collect()
+    })
+}
+
+/// Splits closest-hit records into the arrays of `cast_rays` on `nthreads`
+/// threads, the normal of each hit read from `normal_of(prim)`.
 pub(crate) fn cast_arrays<'py>(
     py: Python<'py>,
     hits: &[Hit],
-    normal_of: impl Fn(u32) -> [f32; 3] + Sync,
+    nthreads: usize,
+    normal_of: impl Fn(u32) -> [f32; 3] + Sync + Send,
 ) -> PyResult<CastArrays<'py>> {
     let n = hits.len();
     let (t, ids, uvs, normals) = py.detach(|| {
-        let t: Vec<f32> = hits.par_iter().map(|h| h.t).collect();
-        let ids: Vec<u32> = hits.par_iter().map(|h| h.prim).collect();
-        let uvs: Vec<f32> = hits.par_iter().flat_map_iter(|h| [h.u, h.v]).collect();
-        let normals: Vec<f32> = hits
-            .par_iter()
-            .flat_map_iter(|h| {
-                if h.is_hit() {
-                    normal_of(h.prim)
-                } else {
-                    [0.0; 3]
-                }
-            })
-            .collect();
-        (t, ids, uvs, normals)
-    });
-    let uvs = PyArray1::from_vec(py, uvs).reshape([n, 2])?.into_any();
-    let normals = PyArray1::from_vec(py, normals).reshape([n, 3])?.into_any();
+        let t = map_all(hits, nthreads, |h| h.t)?;
+        let ids = map_all(hits, nthreads, |h| h.prim)?;
+        let uvs = map_all(hits, nthreads, |h| [h.u, h.v])?;
+        let normals = map_all(hits, nthreads, |h| {
+            if h.is_hit() {
+                normal_of(h.prim)
+            } else {
+                [0.0; 3]
+            }
+        })?;
+        Ok::<_, PyErr>((t, ids, uvs, normals))
+    })?;
+    let uvs = PyArray1::from_vec(py, uvs.into_flattened())
+        .reshape([n, 2])?
+        .into_any();
+    let normals = PyArray1::from_vec(py, normals.into_flattened())
+        .reshape([n, 3])?
+        .into_any();
     Ok((
         PyArray1::from_vec(py, t),
         PyArray1::from_vec(py, ids),

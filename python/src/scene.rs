@@ -3,13 +3,12 @@
 
 use crate::held::{Bytes, HeldScene};
 use crate::pools;
-use crate::rays::{hit_lists, ray_slice, unit_normal, SERIAL_MAX};
-use kdray_kernel::{Instance, Ray, Scene as KernelScene, SceneHit, Triangle, MISS};
+use crate::rays::{hit_lists, map_all, ray_slice, unit_normal};
+use kdray_kernel::{Instance, Scene as KernelScene, SceneHit, Triangle, MISS};
 use kdray_tools::instances::transform_point;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2};
 use pyo3::exceptions::PyOSError;
 use pyo3::prelude::*;
-use rayon::prelude::*;
 use std::path::PathBuf;
 
 /// Every instance: the mask that selects all.
@@ -39,23 +38,6 @@ type SceneHits<'py> = (
     Bound<'py, PyAny>,
 );
 
-/// `f` of every ray on `nthreads` threads (small batches on the calling
-/// thread), in order. (The tools' `trace_scene` numbers hits in the
-/// flattened order, a `u32` that a large scene overflows; a `SceneHit`
-/// keeps the instance.)
-fn each_ray<R: Send>(
-    rays: &[Ray],
-    nthreads: usize,
-    f: impl Fn(&Ray) -> R + Sync + Send,
-) -> PyResult<Vec<R>> {
-    if rays.len() <= SERIAL_MAX {
-        return Ok(rays.iter().map(&f).collect());
-    }
-    pools::install(nthreads, || {
-        rays.par_iter().with_min_len(256).map(&f).collect()
-    })
-}
-
 /// The unit normal, in world space, of triangle `prim` of `instance`.
 fn world_normal(scene: &KernelScene<'_>, instance: u32, prim: u32) -> [f32; 3] {
     let Some(inst) = scene.instances().get(instance as usize) else {
@@ -79,30 +61,31 @@ fn cast_arrays<'py>(
     py: Python<'py>,
     scene: &KernelScene<'_>,
     hits: &[SceneHit],
+    nthreads: usize,
 ) -> PyResult<SceneCast<'py>> {
     let n = hits.len();
     let geometry: Vec<u32> = hits
         .iter()
         .map(|h| if h.is_hit() { h.instance } else { MISS })
         .collect();
-    let normals: Vec<f32> = py.detach(|| {
-        hits.par_iter()
-            .flat_map_iter(|h| {
-                if h.is_hit() {
-                    world_normal(scene, h.instance, h.prim)
-                } else {
-                    [0.0; 3]
-                }
-            })
-            .collect()
-    });
+    let normals = py.detach(|| {
+        map_all(hits, nthreads, |h| {
+            if h.is_hit() {
+                world_normal(scene, h.instance, h.prim)
+            } else {
+                [0.0; 3]
+            }
+        })
+    })?;
     let uvs: Vec<f32> = hits.iter().flat_map(|h| [h.u, h.v]).collect();
     Ok((
         PyArray1::from_vec(py, hits.iter().map(|h| h.t).collect()),
         PyArray1::from_vec(py, geometry),
         PyArray1::from_vec(py, hits.iter().map(|h| h.prim).collect()),
         PyArray1::from_vec(py, uvs).reshape([n, 2])?.into_any(),
-        PyArray1::from_vec(py, normals).reshape([n, 3])?.into_any(),
+        PyArray1::from_vec(py, normals.into_flattened())
+            .reshape([n, 3])?
+            .into_any(),
     ))
 }
 
@@ -187,8 +170,8 @@ impl Scene {
     ) -> PyResult<SceneCast<'py>> {
         let rays = ray_slice(&rays)?;
         let scene = self.held.scene();
-        let hits = py.detach(|| each_ray(rays, nthreads, |r| scene.closest_hit(r, ALL)))?;
-        cast_arrays(py, scene, &hits)
+        let hits = py.detach(|| map_all(rays, nthreads, |r| scene.closest_hit(r, ALL)))?;
+        cast_arrays(py, scene, &hits, nthreads)
     }
 
     /// Whether each ray hits any instance in its `[tnear, tfar]`.
@@ -200,7 +183,7 @@ impl Scene {
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
         let rays = ray_slice(&rays)?;
         let scene = self.held.scene();
-        let hits = py.detach(|| each_ray(rays, nthreads, |r| scene.any_hit(r, ALL)))?;
+        let hits = py.detach(|| map_all(rays, nthreads, |r| scene.any_hit(r, ALL)))?;
         Ok(PyArray1::from_vec(py, hits))
     }
 
@@ -237,7 +220,7 @@ impl Scene {
                 .map(|r| scene.closest_hit_brute(r, ALL))
                 .collect()
         });
-        cast_arrays(py, scene, &hits)
+        cast_arrays(py, scene, &hits, 0)
     }
 
     /// The oracle of `occluded`, for tests.

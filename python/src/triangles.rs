@@ -231,7 +231,7 @@ impl TriangleTree {
         let rays = ray_slice(&rays)?;
         let (tree, width) = (self.held.tree(), width(packet)?);
         let hits = py.detach(|| trace(tree, rays, Query::Closest, width, nthreads))?;
-        cast_arrays(py, &hits, |p| unit_normal(tree.triangles(), p))
+        cast_arrays(py, &hits, nthreads, |p| unit_normal(tree.triangles(), p))
     }
 
     /// Whether each ray hits anything in its `[tnear, tfar]`.
@@ -279,7 +279,7 @@ impl TriangleTree {
         let tris = self.held.tree().triangles();
         let hits: Vec<Hit> =
             py.detach(|| rays.iter().map(|r| closest_hit_brute(tris, r)).collect());
-        cast_arrays(py, &hits, |p| unit_normal(tris, p))
+        cast_arrays(py, &hits, 0, |p| unit_normal(tris, p))
     }
 
     /// The oracle of `occluded` ([`any_hit_brute`]), for tests.

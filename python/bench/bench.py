@@ -39,10 +39,9 @@ def best(reps: int, *calls: Callable[[], Any]) -> list[float]:
 
 
 def load(name: str) -> tuple[np.ndarray, np.ndarray]:
-    import trimesh
-
-    m = trimesh.load(MESHES / name, force="mesh", process=False)
-    return np.asarray(m.vertices, np.float32), np.asarray(m.faces, np.uint32)
+    """The mesh's triangles as every peer takes them: 3 vertices each, in the tools' loader's order."""
+    tris = kdray.TriangleTree.from_file(MESHES / name, builder="fast").triangles
+    return tris.reshape(-1, 3), np.arange(3 * len(tris), dtype=np.uint32).reshape(-1, 3)
 
 
 def camera(v: np.ndarray, n: int) -> np.ndarray:
@@ -76,6 +75,27 @@ def shadow(v: np.ndarray, f: np.ndarray, n: int, seed: int) -> tuple[np.ndarray,
     return np.hstack([p, light - p]).astype(np.float32), 1e-4, 1 - 1e-4
 
 
+def cli_seconds(tree: kdray.TriangleTree, rays: np.ndarray) -> float | None:
+    """``kdray trace --threads 1``'s own timing of the same rays (file I/O excluded), if the CLI is built."""
+    import json
+    import subprocess
+    import tempfile
+
+    cli = Path(__file__).resolve().parents[2] / "target" / "release" / "kdray"
+    if not cli.is_file():
+        return None
+    with tempfile.TemporaryDirectory() as d:
+        tree.save(Path(d) / "t.kdt")
+        layout = np.zeros((len(rays), 8), np.float32)
+        layout[:, 0:3], layout[:, 4:7], layout[:, 7] = rays[:, :3], rays[:, 3:], np.inf
+        layout.tofile(Path(d) / "r.rays")
+        out = subprocess.run(
+            [cli, "trace", Path(d) / "t.kdt", Path(d) / "r.rays", "-o", Path(d) / "h", "--threads", "1", "--json", "--repeat", "3"],
+            check=True, capture_output=True, text=True,
+        ).stdout
+        return float(json.loads(out)["seconds"])
+
+
 def rays_rows(rows: list[tuple[str, float]], n: int, reps: int) -> None:
     import open3d as o3d
     import trimesh
@@ -97,7 +117,12 @@ def rays_rows(rows: list[tuple[str, float]], n: int, reps: int) -> None:
         rows.append((f"{short}: kdray build (s), one core", kd_build))
         for kind, rays in (("camera", camera(v, n)), ("random", scattered(v, n, 1))):
             t = o3d.core.Tensor(rays)
-            s_kd1, s_o1 = best(reps, lambda: tree.cast_rays(rays, 1), lambda: scene1.cast_rays(t, nthreads=1))
+            s_kd1, s_kd8, s_o1 = best(
+                reps,
+                lambda: tree.cast_rays(rays, 1),
+                lambda: tree.cast_rays(rays, 1, packet=8),
+                lambda: scene1.cast_rays(t, nthreads=1),
+            )
             s_kd, s_o = best(reps, lambda: tree.cast_rays(rays), lambda: scene_all.cast_rays(t))
             sub = rays[: n // 10]
             s_kd_s, s_tm = best(
@@ -106,17 +131,23 @@ def rays_rows(rows: list[tuple[str, float]], n: int, reps: int) -> None:
                 lambda: tm.ray.intersects_first(sub[:, :3], sub[:, 3:]),
             )
             rows.append((f"{short} {kind} cast_rays vs Open3D, nthreads=1", s_o1 / s_kd1))
+            rows.append((f"{short} {kind} cast_rays packet=8 vs Open3D, nthreads=1", s_o1 / s_kd8))
             rows.append((f"{short} {kind} cast_rays vs Open3D, all cores", s_o / s_kd))
             rows.append((f"{short} {kind} cast_rays vs trimesh+embreex (1/10 of the rays)", s_tm / s_kd_s))
             rows.append((f"{short} {kind} kdray Mrays/s, nthreads=1", n / s_kd1 / 1e6))
+            cli = cli_seconds(tree, rays)
+            if cli is not None:
+                rows.append((f"{short} {kind} kdray trace (CLI) seconds / cast_rays seconds", cli / s_kd1))
         rays, tnear, tfar = shadow(v, f, n, 2)
         t = o3d.core.Tensor(rays)
-        s_kd, s_o = best(
+        s_kd, s_kd8, s_o = best(
             reps,
             lambda: tree.test_occlusions(rays, tnear, tfar, 1),
+            lambda: tree.test_occlusions(rays, tnear, tfar, 1, packet=8),
             lambda: scene1.test_occlusions(t, tnear=tnear, tfar=tfar, nthreads=1),
         )
         rows.append((f"{short} shadow test_occlusions vs Open3D, nthreads=1", s_o / s_kd))
+        rows.append((f"{short} shadow test_occlusions packet=8 vs Open3D, nthreads=1", s_o / s_kd8))
         one = rays[:1]
         t1 = o3d.core.Tensor(one)
         calls = 2000
@@ -180,7 +211,7 @@ def dask_rows(rows: list[tuple[str, float]], n: int) -> None:
         dask.compute(*hits.values())
         s_dask = time.perf_counter() - t
         held = client.run(lambda dask_worker: sum(isinstance(x, kdray.TriangleTree) for x in dask_worker.data.values()))
-    rows.append((f"dask 2 local workers vs one process, bunny {n // 1_000_000}M random rays (throughput ratio)", s_one / s_dask))
+    rows.append((f"dask 2 local workers vs one process, bunny {n // 1000}k random rays (throughput ratio)", s_one / s_dask))
     rows.append(("dask: tree copies held per worker after the run", float(max(held.values()))))
     rows.append(("dask: workers holding the tree", float(sum(1 for c in held.values() if c))))
 

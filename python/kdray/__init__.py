@@ -175,7 +175,7 @@ class _RayQueries:
         directions: npt.ArrayLike | None = None,
         tnear: npt.ArrayLike = 0.0,
         tfar: npt.ArrayLike = np.inf,
-        packet: int = 1,
+        packet: int = 8,
     ) -> dict[str, np.ndarray]:
         """The closest hit of each ray, with Open3D's result names.
 
@@ -183,8 +183,9 @@ class _RayQueries:
         traced in float32), over ``[tnear, tfar]``. Or give ``origins`` and
         ``directions`` (``(..., 3)`` each); ``tnear`` / ``tfar`` broadcast
         to the leading shape. ``nthreads``: 0 for all cores. ``packet``: 1,
-        4, 8 or 16 consecutive rays traced together (pays for coherent
-        rays in pixel tiles; the same answers).
+        4, 8 or 16 consecutive rays traced together where they are
+        coherent (blocks found scattered take the single-ray walks in
+        turns); the answers are the same for any width.
 
         Returns ``t_hit`` (float32, inf on a miss), ``primitive_ids``
         (uint32, :data:`MISS` on a miss), ``primitive_uvs`` (``(..., 2)``,
@@ -209,7 +210,7 @@ class _RayQueries:
         tfar: npt.ArrayLike = np.inf,
         nthreads: int = 0,
         *,
-        packet: int = 1,
+        packet: int = 8,
     ) -> np.ndarray:
         """Whether each ray ``(..., 6)`` hits anything in ``[tnear, tfar]``: bool, of its leading shape."""
         r, lead = _rays(rays, None, None, tnear, tfar)

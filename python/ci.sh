@@ -14,7 +14,7 @@ VENV=${KDRAY_PY_VENV:-../target/py-venv}
 cargo fmt --manifest-path Cargo.toml -- --check
 cargo clippy --manifest-path Cargo.toml --all-targets -- -D warnings
 "$VENV/bin/pip" install -q --force-reinstall --no-deps .
-"$VENV/bin/ruff" check kdray tests
+"$VENV/bin/ruff" check kdray tests bench
 # Outside python/, so `import kdray` is the installed package, not ./kdray.
 (cd /tmp && "$VENV/bin/python" -m mypy.stubtest kdray._kdray)
 "$VENV/bin/mypy" kdray

@@ -154,3 +154,17 @@ def test_integer_data_is_float64_and_eps_is_exact() -> None:
     assert tree.dtype == np.float64
     _, i = tree.query([[0, 1, 2.2]], k=2, eps=0.5)
     np.testing.assert_array_equal(i, [[0, 1]])
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_distance_upper_bound_is_strict_as_scipy(dtype: type) -> None:
+    # The unit points are at distance exactly 1 from the origin.
+    data = np.vstack([np.eye(3), [[2, 2, 2]]]).astype(dtype)
+    tree, ref = kdray.KDTree(data), cKDTree(data.astype(np.float64))
+    for ub in (1.0, float(np.nextafter(dtype(1), dtype(2)))):
+        d, i = tree.query(np.zeros(3, dtype), k=4, distance_upper_bound=ub)
+        sd, si = ref.query(np.zeros(3), k=4, distance_upper_bound=ub)
+        np.testing.assert_array_equal(d, sd.astype(dtype))
+        np.testing.assert_array_equal(np.sort(i), np.sort(si))  # equal distances: any order in scipy
+        np.testing.assert_array_equal(i, np.sort(i))  # the lower index first in kdray
+    assert kdray.KDTree(data).query_ball_point([0, 0, 0], 1.0) == [0, 1, 2]  # inclusive, as scipy

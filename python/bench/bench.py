@@ -1,0 +1,291 @@
+# ruff: noqa: B023  (the timed lambdas run inside their own loop pass)
+"""kdray beside the Python peers on the same arrays, one table of ratios.
+
+Run in the peers' venv (``bash ../shared/anchors/python/setup.sh``), with
+kdray installed there or on ``PYTHONPATH``, pinned to one core::
+
+    /work/bin/slot --quiet taskset -c 0 env OMP_NUM_THREADS=1 \\
+        $(bash ../shared/anchors/python/setup.sh) python/bench/bench.py [--quick]
+
+Every row is ``peer seconds / kdray seconds`` (above 1: kdray is faster),
+the best of ``--reps`` interleaved passes. Meshes come from
+``../shared/meshes`` (``KDRAY_MESHES=DIR`` for another folder).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import kdray
+
+MESHES = Path(
+    os.environ.get("KDRAY_MESHES", Path(__file__).resolve().parents[3] / "shared" / "meshes")
+)
+
+
+def best(reps: int, *calls: Callable[[], Any]) -> list[float]:
+    """The best seconds of each call over ``reps`` interleaved passes."""
+    out = [np.inf] * len(calls)
+    for _ in range(reps):
+        for j, c in enumerate(calls):
+            t = time.perf_counter()
+            c()
+            out[j] = min(out[j], time.perf_counter() - t)
+    return out
+
+
+def load(name: str) -> tuple[np.ndarray, np.ndarray]:
+    """The mesh's triangles as every peer takes them: 3 vertices each, in the tools' loader's order."""
+    tris = kdray.TriangleTree.from_file(MESHES / name, builder="fast").triangles
+    return tris.reshape(-1, 3), np.arange(3 * len(tris), dtype=np.uint32).reshape(-1, 3)
+
+
+def camera(v: np.ndarray, n: int) -> np.ndarray:
+    lo, hi = v.min(0), v.max(0)
+    c, ext = (lo + hi) / 2, float(np.max(hi - lo))
+    side = int(np.sqrt(n))
+    ys, xs = np.meshgrid(np.linspace(-0.5, 0.5, side), np.linspace(-0.5, 0.5, side), indexing="ij")
+    d = np.stack([xs * 0.7, ys * 0.7, np.ones_like(xs)], -1).reshape(-1, 3)
+    o = np.broadcast_to(c - [0, 0, 1.4 * ext], d.shape)
+    return np.hstack([o, d]).astype(np.float32)
+
+
+def scattered(v: np.ndarray, n: int, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    lo, hi = v.min(0), v.max(0)
+    o = lo + (hi - lo) * rng.random((n, 3))
+    d = rng.normal(size=(n, 3))
+    return np.hstack([o, d]).astype(np.float32)
+
+
+def shadow(v: np.ndarray, f: np.ndarray, n: int, seed: int) -> tuple[np.ndarray, float, float]:
+    """Rays from random surface points towards a light above the mesh: (rays, tnear, tfar)."""
+    rng = np.random.default_rng(seed)
+    tri = v[f[rng.integers(0, len(f), n)]]
+    a, b = rng.random((2, n, 1))
+    flip = a + b > 1
+    a, b = np.where(flip, 1 - a, a), np.where(flip, 1 - b, b)
+    p = tri[:, 0] + a * (tri[:, 1] - tri[:, 0]) + b * (tri[:, 2] - tri[:, 0])
+    lo, hi = v.min(0), v.max(0)
+    light = (lo + hi) / 2 + [0, 2 * float(np.max(hi - lo)), 0]
+    return np.hstack([p, light - p]).astype(np.float32), 1e-4, 1 - 1e-4
+
+
+def cli_seconds(tree: kdray.TriangleTree, rays: np.ndarray) -> float | None:
+    """``kdray trace --threads 1``'s own timing of the same rays (file I/O excluded), if the CLI is built."""
+    import json
+    import subprocess
+    import tempfile
+
+    cli = Path(__file__).resolve().parents[2] / "target" / "release" / "kdray"
+    if not cli.is_file():
+        return None
+    with tempfile.TemporaryDirectory() as d:
+        tree.save(Path(d) / "t.kdt")
+        layout = np.zeros((len(rays), 8), np.float32)
+        layout[:, 0:3], layout[:, 4:7], layout[:, 7] = rays[:, :3], rays[:, 3:], np.inf
+        layout.tofile(Path(d) / "r.rays")
+        out = subprocess.run(
+            [
+                cli,
+                "trace",
+                Path(d) / "t.kdt",
+                Path(d) / "r.rays",
+                "-o",
+                Path(d) / "h",
+                "--threads",
+                "1",
+                "--packet",
+                "8",
+                "--json",
+                "--repeat",
+                "3",
+            ],
+            check=True,
+            capture_output=True,
+            text=True,
+        ).stdout
+        return float(json.loads(out)["seconds"])
+
+
+def rays_rows(rows: list[tuple[str, float]], n: int, reps: int) -> None:
+    import open3d as o3d
+    import trimesh
+
+    for name in ("stanford-bunny.obj", "sponza.obj"):
+        if not (MESHES / name).is_file():
+            print(f"# {name}: not found, skipped")
+            continue
+        v, f = load(name)
+        t0 = time.perf_counter()
+        tree = kdray.TriangleTree(v, f)
+        kd_build = time.perf_counter() - t0
+        scene1 = o3d.t.geometry.RaycastingScene(nthreads=1)
+        scene1.add_triangles(o3d.core.Tensor(v), o3d.core.Tensor(f))
+        scene_all = o3d.t.geometry.RaycastingScene()
+        scene_all.add_triangles(o3d.core.Tensor(v), o3d.core.Tensor(f))
+        tm = trimesh.Trimesh(v, f, process=False)
+        short = name.split(".")[0].replace("stanford-", "")
+        rows.append((f"{short}: kdray build (s), one core", kd_build))
+        for kind, rays in (("camera", camera(v, n)), ("random", scattered(v, n, 1))):
+            t = o3d.core.Tensor(rays)
+            s_kd1, s_kd8, s_o1 = best(
+                reps,
+                lambda: tree.cast_rays(rays, 1, packet=1),
+                lambda: tree.cast_rays(rays, 1),
+                lambda: scene1.cast_rays(t, nthreads=1),
+            )
+            s_kd, s_o = best(reps, lambda: tree.cast_rays(rays), lambda: scene_all.cast_rays(t))
+            sub = rays[: n // 10]
+            s_kd_s, s_tm = best(
+                1,
+                lambda: tree.cast_rays(sub, 1),
+                lambda: tm.ray.intersects_first(sub[:, :3], sub[:, 3:]),
+            )
+            rows.append((f"{short} {kind} cast_rays packet=1 vs Open3D, nthreads=1", s_o1 / s_kd1))
+            rows.append((f"{short} {kind} cast_rays (packet=8) vs Open3D, nthreads=1", s_o1 / s_kd8))
+            rows.append((f"{short} {kind} cast_rays vs Open3D, all cores", s_o / s_kd))
+            rows.append(
+                (f"{short} {kind} cast_rays vs trimesh+embreex (1/10 of the rays)", s_tm / s_kd_s)
+            )
+            rows.append((f"{short} {kind} kdray Mrays/s, nthreads=1", n / s_kd8 / 1e6))
+            cli = cli_seconds(tree, rays)
+            if cli is not None:
+                rows.append(
+                    (f"{short} {kind} kdray trace (CLI) seconds / cast_rays seconds", cli / s_kd8)
+                )
+        rays, tnear, tfar = shadow(v, f, n, 2)
+        t = o3d.core.Tensor(rays)
+        s_kd, s_kd8, s_o = best(
+            reps,
+            lambda: tree.test_occlusions(rays, tnear, tfar, 1, packet=1),
+            lambda: tree.test_occlusions(rays, tnear, tfar, 1),
+            lambda: scene1.test_occlusions(t, tnear=tnear, tfar=tfar, nthreads=1),
+        )
+        rows.append((f"{short} shadow test_occlusions packet=1 vs Open3D, nthreads=1", s_o / s_kd))
+        rows.append((f"{short} shadow test_occlusions (packet=8) vs Open3D, nthreads=1", s_o / s_kd8))
+        one = rays[:1]
+        t1 = o3d.core.Tensor(one)
+        calls = 2000
+        s_kd, s_o = best(
+            3,
+            lambda: [tree.cast_rays(one, 1) for _ in range(calls)],
+            lambda: [scene1.cast_rays(t1, nthreads=1) for _ in range(calls)],
+        )
+        rows.append((f"{short} one-ray cast_rays: kdray us/call", s_kd / calls * 1e6))
+        rows.append((f"{short} one-ray cast_rays: Open3D us/call", s_o / calls * 1e6))
+
+
+def points_rows(rows: list[tuple[str, float]], n: int, m: int, reps: int) -> None:
+    from pykdtree.kdtree import KDTree as PyKDTree
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(3)
+    data, x = rng.random((n, 3)), rng.random((m, 3))
+    b_kd, b_sp = best(reps, lambda: kdray.KDTree(data), lambda: cKDTree(data, leafsize=16))
+    rows.append(("KDTree build vs scipy cKDTree (1M 3-D f64)", b_sp / b_kd))
+    kd, sp, pk = kdray.KDTree(data), cKDTree(data, leafsize=16), PyKDTree(data, leafsize=16)
+    for k in (1, 10):
+        s_kd, s_sp, s_pk = best(
+            reps,
+            lambda: kd.query(x, k=k),
+            lambda: sp.query(x, k=k, workers=1),
+            lambda: pk.query(x, k=k),
+        )
+        rows.append((f"KDTree.query k={k} vs scipy cKDTree (f64, 1 worker)", s_sp / s_kd))
+        rows.append(
+            (
+                f"KDTree.query k={k} vs pykdtree (f64, OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', '?')})",
+                s_pk / s_kd,
+            )
+        )
+    d32, x32 = data.astype(np.float32), x.astype(np.float32)
+    kd32, pk32 = kdray.KDTree(d32), PyKDTree(d32, leafsize=16)
+    for k in (1, 10):
+        s_kd, s_sp, s_pk = best(
+            reps,
+            lambda: kd32.query(x32, k=k),
+            lambda: sp.query(x, k=k, workers=1),
+            lambda: pk32.query(x32, k=k),
+        )
+        rows.append((f"KDTree.query k={k} f32 vs scipy cKDTree (its f64)", s_sp / s_kd))
+        rows.append((f"KDTree.query k={k} f32 vs pykdtree f32", s_pk / s_kd))
+    one = x[:1]
+    calls = 5000
+    s_kd, s_sp = best(
+        3,
+        lambda: [kd.query(one) for _ in range(calls)],
+        lambda: [sp.query(one) for _ in range(calls)],
+    )
+    rows.append(("one-query KDTree.query: kdray us/call", s_kd / calls * 1e6))
+    rows.append(("one-query cKDTree.query: scipy us/call", s_sp / calls * 1e6))
+
+
+def dask_rows(rows: list[tuple[str, float]], n: int) -> None:
+    import dask
+    import dask.array as da
+    from distributed import Client, LocalCluster
+
+    import kdray.dask as kd
+
+    if not (MESHES / "stanford-bunny.obj").is_file():
+        return
+    v, f = load("stanford-bunny.obj")
+    tree = kdray.TriangleTree(v, f)
+    rays = scattered(v, n, 4)
+    (s_one,) = best(1, lambda: tree.cast_rays(rays, 1))
+    with (
+        LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cl,
+        Client(cl) as client,
+    ):
+        arr = da.from_array(rays, chunks=(n // 8, 6))
+        arr = client.persist(arr)
+        hits = kd.cast_rays(tree, arr, nthreads=1)
+        t = time.perf_counter()
+        dask.compute(*hits.values())
+        s_dask = time.perf_counter() - t
+        held = client.run(
+            lambda dask_worker: sum(
+                isinstance(x, kdray.TriangleTree) for x in dask_worker.data.values()
+            )
+        )
+    rows.append(
+        (
+            f"dask 2 local workers vs one process, bunny {n // 1000}k random rays (throughput ratio)",
+            s_one / s_dask,
+        )
+    )
+    rows.append(("dask: tree copies held per worker after the run", float(max(held.values()))))
+    rows.append(("dask: workers holding the tree", float(sum(1 for c in held.values() if c))))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument(
+        "--quick", action="store_true", help="100k rays / 100k points, 1 rep: a smoke run"
+    )
+    ap.add_argument("--reps", type=int, default=3)
+    a = ap.parse_args()
+    n_rays, n_pts, n_q = (100_000, 100_000, 10_000) if a.quick else (1_000_000, 1_000_000, 100_000)
+    reps = 1 if a.quick else a.reps
+    rows: list[tuple[str, float]] = []
+    rays_rows(rows, n_rays, reps)
+    points_rows(rows, n_pts, n_q, reps)
+    dask_rows(rows, 4 * n_rays)
+    width = max(len(r[0]) for r in rows)
+    print(f"{'row':<{width}}  value")
+    for name, value in rows:
+        print(f"{name:<{width}}  {value:.2f}")
+
+
+if __name__ == "__main__":
+    main()

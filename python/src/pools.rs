@@ -1,0 +1,47 @@
+//! The rayon pools behind `nthreads` / `workers`: 0 is the global pool
+//! (all cores); another count gets a pool of that size, made once and
+//! kept, so a call costs no thread start.
+
+use pyo3::exceptions::PyValueError;
+use pyo3::PyResult;
+use rayon::ThreadPool;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+/// Pools by thread count.
+static POOLS: Mutex<Option<HashMap<usize, Arc<ThreadPool>>>> = Mutex::new(None);
+
+/// The most threads a pool may have: more than any machine's cores and
+/// few enough that a typo does not start a million threads.
+const MAX_THREADS: usize = 1024;
+
+/// Runs `f` on `threads` threads (0: the global pool, all cores).
+pub(crate) fn install<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> PyResult<R> {
+    if threads == 0 {
+        return Ok(f());
+    }
+    if threads > MAX_THREADS {
+        return Err(PyValueError::new_err(format!(
+            "nthreads / workers: {threads} is more than {MAX_THREADS}"
+        )));
+    }
+    let pool = {
+        let mut pools = POOLS.lock().unwrap_or_else(|e| e.into_inner());
+        let pools = pools.get_or_insert_with(HashMap::new);
+        match pools.get(&threads) {
+            Some(p) => Arc::clone(p),
+            None => {
+                let p = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .map_err(|e| {
+                        PyValueError::new_err(format!("cannot start {threads} threads: {e}"))
+                    })?;
+                let p = Arc::new(p);
+                pools.insert(threads, Arc::clone(&p));
+                p
+            }
+        }
+    };
+    Ok(pool.install(f))
+}

@@ -1,0 +1,238 @@
+//! `Scene`: a scene blob of instanced meshes (`kdray build --instances`)
+//! and its ray queries, each hit naming its instance (`geometry_ids`).
+
+use crate::held::{Bytes, HeldScene};
+use crate::pools;
+use crate::rays::{hit_lists, map_all, ray_slice, unit_normal};
+use kdray_kernel::{Instance, Scene as KernelScene, SceneHit, Triangle, MISS};
+use kdray_tools::instances::transform_point;
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2};
+use pyo3::exceptions::PyOSError;
+use pyo3::prelude::*;
+use std::path::PathBuf;
+
+/// Every instance: the mask that selects all.
+const ALL: u32 = u32::MAX;
+
+/// A scene of instanced meshes (compiled layer of `kdray.Scene`).
+#[pyclass(frozen, module = "kdray._kdray")]
+pub(crate) struct Scene {
+    held: HeldScene,
+}
+
+/// `(t_hit, geometry_ids, primitive_ids, primitive_uvs, primitive_normals)`.
+type SceneCast<'py> = (
+    Bound<'py, PyArray1<f32>>,
+    Bound<'py, PyArray1<u32>>,
+    Bound<'py, PyArray1<u32>>,
+    Bound<'py, PyAny>,
+    Bound<'py, PyAny>,
+);
+
+/// `(ray_splits, t_hit, geometry_ids, primitive_ids, primitive_uvs)`.
+type SceneHits<'py> = (
+    Bound<'py, PyArray1<u64>>,
+    Bound<'py, PyArray1<f32>>,
+    Bound<'py, PyArray1<u32>>,
+    Bound<'py, PyArray1<u32>>,
+    Bound<'py, PyAny>,
+);
+
+/// The unit normal, in world space, of triangle `prim` of `instance`.
+fn world_normal(scene: &KernelScene<'_>, instance: u32, prim: u32) -> [f32; 3] {
+    let Some(inst) = scene.instances().get(instance as usize) else {
+        return [0.0; 3];
+    };
+    let Some(tri) = scene
+        .mesh(inst.mesh())
+        .and_then(|t| t.triangles().get(prim as usize).copied())
+    else {
+        return [0.0; 3];
+    };
+    let m = inst.to_world();
+    let world = Triangle {
+        v: tri.v.map(|p| transform_point(&m, p)),
+    };
+    unit_normal(&[world], 0)
+}
+
+/// The arrays of `cast_rays` from scene hits.
+fn cast_arrays<'py>(
+    py: Python<'py>,
+    scene: &KernelScene<'_>,
+    hits: &[SceneHit],
+    nthreads: usize,
+) -> PyResult<SceneCast<'py>> {
+    let n = hits.len();
+    let geometry: Vec<u32> = hits
+        .iter()
+        .map(|h| if h.is_hit() { h.instance } else { MISS })
+        .collect();
+    let normals = py.detach(|| {
+        map_all(hits, nthreads, |h| {
+            if h.is_hit() {
+                world_normal(scene, h.instance, h.prim)
+            } else {
+                [0.0; 3]
+            }
+        })
+    })?;
+    let uvs: Vec<f32> = hits.iter().flat_map(|h| [h.u, h.v]).collect();
+    Ok((
+        PyArray1::from_vec(py, hits.iter().map(|h| h.t).collect()),
+        PyArray1::from_vec(py, geometry),
+        PyArray1::from_vec(py, hits.iter().map(|h| h.prim).collect()),
+        PyArray1::from_vec(py, uvs).reshape([n, 2])?.into_any(),
+        PyArray1::from_vec(py, normals.into_flattened())
+            .reshape([n, 3])?
+            .into_any(),
+    ))
+}
+
+/// The arrays of `list_intersections` from scene hit lists.
+fn hit_arrays<'py>(
+    py: Python<'py>,
+    splits: Vec<u64>,
+    hits: &[SceneHit],
+) -> PyResult<SceneHits<'py>> {
+    let uvs: Vec<f32> = hits.iter().flat_map(|h| [h.u, h.v]).collect();
+    Ok((
+        PyArray1::from_vec(py, splits),
+        PyArray1::from_vec(py, hits.iter().map(|h| h.t).collect()),
+        PyArray1::from_vec(py, hits.iter().map(|h| h.instance).collect()),
+        PyArray1::from_vec(py, hits.iter().map(|h| h.prim).collect()),
+        PyArray1::from_vec(py, uvs)
+            .reshape([hits.len(), 2])?
+            .into_any(),
+    ))
+}
+
+/// The most hits a ray can have in `scene`: every instance's triangles.
+fn max_hits(scene: &KernelScene<'_>) -> usize {
+    scene
+        .instances()
+        .iter()
+        .map(|i: &Instance| scene.mesh(i.mesh()).map_or(0, |t| t.triangles().len()))
+        .sum()
+}
+
+#[pymethods]
+impl Scene {
+    /// Validates a scene blob held by `buffer` (borrowed when read-only,
+    /// C-contiguous, 64-byte aligned and `copy` is false; copied otherwise).
+    #[staticmethod]
+    fn from_buffer(buffer: &Bound<'_, PyAny>, copy: bool) -> PyResult<Scene> {
+        let bytes = Bytes::from_buffer(buffer, kdray_kernel::MESH_ALIGN, copy)?;
+        let held = buffer.py().detach(|| HeldScene::new(bytes))?;
+        Ok(Scene { held })
+    }
+
+    /// Reads and validates a scene blob file.
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Scene> {
+        let blob = py
+            .detach(|| kdray_tools::blob::Blob::read(&path))
+            .map_err(|e| PyOSError::new_err(format!("{}: {e}", path.display())))?;
+        let held = py.detach(|| HeldScene::new(Bytes::Owned(blob)))?;
+        Ok(Scene { held })
+    }
+
+    /// The blob, as a `bytes` object.
+    fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        self.held.bytes().to_pybytes(py)
+    }
+
+    /// Writes the blob to `path` (the tools' atomic writer).
+    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        let bytes = self.held.bytes().as_slice();
+        py.detach(|| kdray_tools::io::write_bytes(&path, bytes))
+            .map_err(|e| PyOSError::new_err(e.to_string()))
+    }
+
+    /// How many instances.
+    #[getter]
+    fn instance_count(&self) -> usize {
+        self.held.scene().instances().len()
+    }
+
+    /// How many meshes.
+    #[getter]
+    fn mesh_count(&self) -> u32 {
+        self.held.scene().mesh_count()
+    }
+
+    /// The closest hit of each ray through every instance.
+    fn cast<'py>(
+        &self,
+        py: Python<'py>,
+        rays: PyReadonlyArray2<'py, f32>,
+        nthreads: usize,
+    ) -> PyResult<SceneCast<'py>> {
+        let rays = ray_slice(&rays)?;
+        let scene = self.held.scene();
+        let hits = py.detach(|| map_all(rays, nthreads, |r| scene.closest_hit(r, ALL)))?;
+        cast_arrays(py, scene, &hits, nthreads)
+    }
+
+    /// Whether each ray hits any instance in its `[tnear, tfar]`.
+    fn occluded<'py>(
+        &self,
+        py: Python<'py>,
+        rays: PyReadonlyArray2<'py, f32>,
+        nthreads: usize,
+    ) -> PyResult<Bound<'py, PyArray1<bool>>> {
+        let rays = ray_slice(&rays)?;
+        let scene = self.held.scene();
+        let hits = py.detach(|| map_all(rays, nthreads, |r| scene.any_hit(r, ALL)))?;
+        Ok(PyArray1::from_vec(py, hits))
+    }
+
+    /// Every hit of each ray by `t`, then instance, then triangle.
+    fn hits<'py>(
+        &self,
+        py: Python<'py>,
+        rays: PyReadonlyArray2<'py, f32>,
+        nthreads: usize,
+    ) -> PyResult<SceneHits<'py>> {
+        let rays = ray_slice(&rays)?;
+        let scene = self.held.scene();
+        let max = max_hits(scene);
+        let lists = py.detach(|| {
+            pools::install(nthreads, || {
+                hit_lists(rays, max, SceneHit::MISS, |r, out| {
+                    scene.first_hits(r, ALL, out)
+                })
+            })
+        })?;
+        hit_arrays(py, lists.splits, &lists.hits)
+    }
+
+    /// The oracle of `cast` (every instance's every triangle), for tests.
+    fn cast_brute<'py>(
+        &self,
+        py: Python<'py>,
+        rays: PyReadonlyArray2<'py, f32>,
+    ) -> PyResult<SceneCast<'py>> {
+        let rays = ray_slice(&rays)?;
+        let scene = self.held.scene();
+        let hits: Vec<SceneHit> = py.detach(|| {
+            rays.iter()
+                .map(|r| scene.closest_hit_brute(r, ALL))
+                .collect()
+        });
+        cast_arrays(py, scene, &hits, 0)
+    }
+
+    /// The oracle of `occluded`, for tests.
+    fn occluded_brute<'py>(
+        &self,
+        py: Python<'py>,
+        rays: PyReadonlyArray2<'py, f32>,
+    ) -> PyResult<Bound<'py, PyArray1<bool>>> {
+        let rays = ray_slice(&rays)?;
+        let scene = self.held.scene();
+        let hits: Vec<bool> =
+            py.detach(|| rays.iter().map(|r| scene.any_hit_brute(r, ALL)).collect());
+        Ok(PyArray1::from_vec(py, hits))
+    }
+}

@@ -3,9 +3,10 @@
 //! validated views that borrow them for as long as the Python object lives.
 
 use crate::BlobError as PyBlobError;
-use kdray_kernel::{Scene, Treelet, TriangleTree};
+use kdray_kernel::{Scene, Treelet, TreeletTree, TriangleTree};
 use kdray_tools::blob::Blob;
 use pyo3::buffer::PyBuffer;
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
@@ -104,7 +105,7 @@ unsafe fn extend(bytes: &Bytes) -> &'static [u8] {
 /// borrows. Fields drop in order: the views before what they borrow.
 pub(crate) struct HeldTree {
     /// Borrows `lines` and `bytes`.
-    tree: TriangleTree<'static>,
+    tree: TreeletTree<'static>,
     /// Never touched after `new` but to drop it.
     _lines: Vec<Treelet>,
     _bytes: Bytes,
@@ -124,7 +125,9 @@ impl HeldTree {
         // after `tree`), and outlives `tree` as above.
         let lined: &'static mut [Treelet] =
             unsafe { std::slice::from_raw_parts_mut(lines.as_mut_ptr(), lines.len()) };
-        let tree = base.treelets_into(lined).unwrap_or(base);
+        let tree = base
+            .treelets_into(lined)
+            .map_err(|e| PyValueError::new_err(format!("triangle tree: {e}")))?;
         Ok(HeldTree {
             tree,
             _lines: lines,
@@ -133,7 +136,7 @@ impl HeldTree {
     }
 
     /// The tree, with its treelets.
-    pub(crate) fn tree(&self) -> &TriangleTree<'_> {
+    pub(crate) fn tree(&self) -> &TreeletTree<'_> {
         &self.tree
     }
 

@@ -92,7 +92,7 @@ fn build_blob(
 /// fresh hit records: small batches on the calling thread, larger ones by
 /// [`trace_into`] (Morton order for large scattered shadow batches).
 fn trace(
-    tree: &kdray_kernel::TriangleTree<'_>,
+    tree: &impl kdray_kernel::TraceBatch,
     rays: &[Ray],
     query: Query,
     width: PacketWidth,
@@ -187,7 +187,7 @@ impl TriangleTree {
 
     /// The triangles, `(F, 3, 3)` float32, in mesh order.
     fn triangles<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let tris = self.held.tree().triangles();
+        let tris = self.held.tree().tree().triangles();
         let floats: Vec<f32> = bytemuck::cast_slice(tris).to_vec();
         Ok(PyArray1::from_vec(py, floats)
             .reshape([tris.len(), 3, 3])?
@@ -197,25 +197,25 @@ impl TriangleTree {
     /// How many triangles.
     #[getter]
     fn triangle_count(&self) -> usize {
-        self.held.tree().triangles().len()
+        self.held.tree().tree().triangles().len()
     }
 
     /// How many nodes.
     #[getter]
     fn node_count(&self) -> usize {
-        self.held.tree().nodes().len()
+        self.held.tree().tree().nodes().len()
     }
 
     /// The depth of the deepest node.
     #[getter]
     fn depth(&self) -> u32 {
-        self.held.tree().max_depth()
+        self.held.tree().tree().max_depth()
     }
 
     /// The root cell's `(min, max)`.
     #[getter]
     fn bounds(&self) -> ([f32; 3], [f32; 3]) {
-        let b = self.held.tree().bounds();
+        let b = self.held.tree().tree().bounds();
         (b.min, b.max)
     }
 
@@ -231,7 +231,9 @@ impl TriangleTree {
         let rays = ray_slice(&rays)?;
         let (tree, width) = (self.held.tree(), width(packet)?);
         let hits = py.detach(|| trace(tree, rays, Query::Closest, width, nthreads))?;
-        cast_arrays(py, &hits, nthreads, |p| unit_normal(tree.triangles(), p))
+        cast_arrays(py, &hits, nthreads, |p| {
+            unit_normal(tree.tree().triangles(), p)
+        })
     }
 
     /// Whether each ray hits anything in its `[tnear, tfar]`.
@@ -259,7 +261,7 @@ impl TriangleTree {
     ) -> PyResult<HitArrays<'py>> {
         let rays = ray_slice(&rays)?;
         let tree = self.held.tree();
-        let max = tree.triangles().len();
+        let max = tree.tree().triangles().len();
         let lists = py.detach(|| {
             pools::install(nthreads, || {
                 hit_lists(rays, max, Hit::MISS, |r, out| tree.first_hits(r, out))
@@ -276,7 +278,7 @@ impl TriangleTree {
         rays: PyReadonlyArray2<'py, f32>,
     ) -> PyResult<CastArrays<'py>> {
         let rays = ray_slice(&rays)?;
-        let tris = self.held.tree().triangles();
+        let tris = self.held.tree().tree().triangles();
         let hits: Vec<Hit> =
             py.detach(|| rays.iter().map(|r| closest_hit_brute(tris, r)).collect());
         cast_arrays(py, &hits, 0, |p| unit_normal(tris, p))
@@ -289,7 +291,7 @@ impl TriangleTree {
         rays: PyReadonlyArray2<'py, f32>,
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
         let rays = ray_slice(&rays)?;
-        let tris = self.held.tree().triangles();
+        let tris = self.held.tree().tree().triangles();
         let occluded: Vec<bool> =
             py.detach(|| rays.iter().map(|r| any_hit_brute(tris, r)).collect());
         Ok(PyArray1::from_vec(py, occluded))
@@ -302,7 +304,7 @@ impl TriangleTree {
         rays: PyReadonlyArray2<'py, f32>,
     ) -> PyResult<HitArrays<'py>> {
         let rays = ray_slice(&rays)?;
-        let tris = self.held.tree().triangles();
+        let tris = self.held.tree().tree().triangles();
         let max = tris.len();
         let lists = py.detach(|| {
             hit_lists(rays, max, Hit::MISS, |r, out| {

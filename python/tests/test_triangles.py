@@ -249,7 +249,7 @@ def test_builders_agree(mesh: tuple[np.ndarray, np.ndarray]) -> None:
 
 
 def test_golden_blob_loads() -> None:
-    cube = Path(__file__).resolve().parents[2] / "kernel" / "golden" / "cube-v2.kdt"
+    cube = Path(__file__).resolve().parents[2] / "kernel" / "golden" / "cube-v3.kdt"
     tree = kdray.TriangleTree.load(cube)
     assert tree.triangle_count == 14
     got = tree.cast_rays(np.array([0.3, 0.6, -1.0, 0, 0, 1], np.float32))

@@ -134,7 +134,8 @@ pub use scene::{
     MESH_ALIGN,
 };
 pub use triangle::{
-    any_hit_brute, closest_hit_brute, first_hits_brute, SurfacePoint, Triangle, MAX_COORD,
+    any_hit_brute, closest_hit_brute, closest_point_brute, first_hits_brute, ClosestPoint,
+    SurfacePoint, Triangle, MAX_COORD,
 };
 pub use triangle_tree::packet::{Packet, Packet16, Packet4, Packet8, PacketWidth};
 pub use triangle_tree::{

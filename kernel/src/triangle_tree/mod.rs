@@ -4,6 +4,7 @@
 //! in `packet`).
 
 pub(crate) mod cell_ray;
+mod closest_point;
 mod counts;
 mod first_hits;
 mod leaf_lanes;

@@ -134,11 +134,11 @@ pub use scene::{
     MESH_ALIGN,
 };
 pub use triangle::{
-    any_hit_brute, closest_hit_brute, closest_point_brute, first_hits_brute, ClosestPoint,
-    SurfacePoint, Triangle, MAX_COORD,
+    any_hit_brute, closest_hit_brute, closest_point_brute, crossings_brute, first_hits_brute,
+    ClosestPoint, SurfacePoint, Triangle, MAX_COORD,
 };
 pub use triangle_tree::packet::{Packet, Packet16, Packet4, Packet8, PacketWidth};
 pub use triangle_tree::{
-    ShallowTree, TraversalCounts, Treelet, TreeletBufferTooSmall, TriangleTree,
+    ShallowTree, TraversalCounts, Treelet, TreeletBufferTooSmall, TriangleTree, INSIDE_RAYS,
 };
 pub use wire::Aligned;

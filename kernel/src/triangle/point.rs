@@ -368,8 +368,18 @@ mod tests {
         let up = tri([0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]);
         let down = tri([0.0, 0.0, -1.0], [1.0, 0.0, -1.0], [0.0, 1.0, -1.0]);
         let q = [0.2, 0.2, 0.0];
-        assert_eq!(closest_point_brute(&[up, down], q, f32::INFINITY).unwrap().prim, 0);
-        assert_eq!(closest_point_brute(&[down, up], q, f32::INFINITY).unwrap().prim, 0);
+        assert_eq!(
+            closest_point_brute(&[up, down], q, f32::INFINITY)
+                .unwrap()
+                .prim,
+            0
+        );
+        assert_eq!(
+            closest_point_brute(&[down, up], q, f32::INFINITY)
+                .unwrap()
+                .prim,
+            0
+        );
         // Exactly at the maximum distance counts; below it, nothing.
         assert_eq!(closest_point_brute(&[up], q, 1.0).unwrap().distance2, 1.0);
         assert_eq!(closest_point_brute(&[up], q, 0.99), None);

@@ -142,7 +142,7 @@ impl TriangleTree<'_> {
                 let Some(&n) = self.nodes.get(near as usize) else {
                     return;
                 };
-                (node_idx, node, cell) = (near, n, near_cell);
+                (node, cell) = (n, near_cell);
             }
             match self.leaf_prims(node) {
                 LeafPrims::One(p) => self.offer(best, p),

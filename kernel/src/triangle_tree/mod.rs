@@ -7,6 +7,7 @@ pub(crate) mod cell_ray;
 mod closest_point;
 mod counts;
 mod first_hits;
+mod inside;
 mod leaf_lanes;
 pub(crate) mod packet;
 mod shallow;
@@ -17,6 +18,7 @@ mod walk;
 pub use treelets::{Treelet, TreeletBufferTooSmall};
 
 pub use counts::TraversalCounts;
+pub use inside::INSIDE_RAYS;
 pub use shallow::ShallowTree;
 
 use crate::blob::wire::{self, Header, Sections, KIND_TRIANGLES};

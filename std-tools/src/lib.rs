@@ -16,6 +16,7 @@ pub mod blob;
 pub mod builders;
 pub mod camera;
 pub mod deforming;
+pub mod distance;
 pub mod instances;
 pub mod io;
 pub mod mesh;

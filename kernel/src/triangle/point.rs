@@ -228,7 +228,7 @@ impl NearestTriangle {
     /// `max_distance` (an infinite one takes every triangle).
     #[must_use]
     pub(crate) fn new(q: [f32; 3], max_distance: f32, scale: f32) -> Option<NearestTriangle> {
-        if !q.iter().all(|c| c.is_finite()) || !(max_distance >= 0.0) {
+        if !q.iter().all(|c| c.is_finite()) || max_distance.is_nan() || max_distance < 0.0 {
             return None;
         }
         let m = q

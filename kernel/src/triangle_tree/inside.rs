@@ -32,7 +32,7 @@ const ROUND: usize = 16;
 /// zero and none is a simple ratio of another, so rays rarely run along a
 /// mesh's axis-aligned faces or edges (which the fill rule handles anyway).
 pub const INSIDE_RAYS: [[f32; 3]; 7] = [
-    [0.382, 0.7071, 0.5952],
+    [0.382, 0.7013, 0.5952],
     [-0.6235, 0.4339, -0.6502],
     [0.809, -0.5388, 0.2351],
     [-0.2588, -0.6691, 0.6963],
@@ -136,7 +136,7 @@ impl TriangleTree<'_> {
                 count = count.wrapping_add(crossings_at(self.triangles, &ray, last));
                 tmin = next_up(last);
             }
-            if !(tmin < f32::INFINITY) {
+            if tmin.is_nan() || tmin == f32::INFINITY {
                 return count;
             }
         }

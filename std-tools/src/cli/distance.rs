@@ -44,7 +44,7 @@ pub(crate) struct Args {
 pub(crate) fn run(a: &Args) -> CmdResult {
     io::check_output(&a.output)?;
     let max_distance = a.max_distance.unwrap_or(f32::INFINITY);
-    if !(max_distance >= 0.0) {
+    if max_distance.is_nan() || max_distance < 0.0 {
         return Err(format!("--max-distance {max_distance} must be a number >= 0").into());
     }
     let sign = match (a.signed, a.votes) {

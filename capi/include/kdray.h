@@ -46,6 +46,41 @@ typedef enum {
   KDRAY_STATUS_WRONG_SHAPE = 7,
 } KdrayStatus;
 
+// An opened triangle tree. Declare one (on the stack, in a struct, as a
+// global) and pass its address to `kdray_triangles_open`.
+//
+// The contents are private: read only by the library. A handle borrows
+// the blob it was opened on; it may be copied with `memcpy` and shared
+// between threads (every query only reads it).
+typedef struct {
+  // Private to the library.
+  uint64_t opaque[KDRAY_HANDLE_WORDS];
+} KdrayTriangleTree;
+
+// The closest point of a mesh to a query: 32 bytes.
+//
+// The point is `(1 - u - v) * v0 + u * v1 + v * v2` of triangle
+// `prim_id`'s vertices. No triangle within the maximum distance:
+// `prim_id = KDRAY_MISS`, the point, `u` and `v` NaN, `distance2 =
+// INFINITY` (NaN for a query with a NaN or infinite coordinate).
+typedef struct {
+  // The closest point, x.
+  float x;
+  // The closest point, y.
+  float y;
+  // The closest point, z.
+  float z;
+  // Index of its triangle in the mesh the blob was built from (the
+  // lowest among equally near ones).
+  uint32_t prim_id;
+  // Barycentric weight of vertex 1.
+  float u;
+  // Barycentric weight of vertex 2.
+  float v;
+  // The squared distance from the query, computed in double.
+  double distance2;
+} KdrayClosestPoint;
+
 // An opened point tree, as [`KdrayTriangleTree`] is for triangles; opened
 // by `kdray_points_open`.
 typedef struct {
@@ -75,17 +110,6 @@ typedef struct {
   // Its squared Euclidean distance to the query, in `double`.
   double d2;
 } KdrayNeighbour64;
-
-// An opened triangle tree. Declare one (on the stack, in a struct, as a
-// global) and pass its address to `kdray_triangles_open`.
-//
-// The contents are private: read only by the library. A handle borrows
-// the blob it was opened on; it may be copied with `memcpy` and shared
-// between threads (every query only reads it).
-typedef struct {
-  // Private to the library.
-  uint64_t opaque[KDRAY_HANDLE_WORDS];
-} KdrayTriangleTree;
 
 // A ray `org + t * dir` for `t` in `[tnear, tfar]`: 32 bytes, the field
 // order of Embree's `RTCRay` without its time, mask, id and flags, and
@@ -300,6 +324,72 @@ const char *kdray_status_text(int32_t status);
 // # Preconditions
 // None.
 const char *kdray_version(void);
+
+// The closest point of `*tree`'s mesh to the point `point[0..3]` among
+// those within `max_distance` (`INFINITY`: no limit; NaN or negative:
+// none), into `*out` (see `KdrayClosestPoint` for no point). Bit for bit
+// the kernel's `TriangleTree::closest_point_within`.
+//
+// # Preconditions
+// - `tree`: opened by `kdray_triangles_open` (else `KDRAY_STATUS_NOT_OPEN`),
+//   and its blob still alive and unchanged.
+// - `point`: non-null, 4-byte aligned, 3 floats; `out` non-null, 8-byte
+//   aligned.
+//
+// # Safety
+// As the preconditions.
+KdrayStatus kdray_closest_point(const KdrayTriangleTree *tree,
+                                const float *point,
+                                float max_distance,
+                                KdrayClosestPoint *out);
+
+// The closest points of `count` points (`points`: `3 * count` floats, x
+// y z each), into `out[0..count]`: each as `kdray_closest_point`.
+//
+// # Preconditions
+// As `kdray_closest_point`, with `points` holding `3 * count` floats and
+// `out` `count` records, not overlapping (non-null even for
+// `count == 0`).
+//
+// # Safety
+// As the preconditions.
+KdrayStatus kdray_closest_points(const KdrayTriangleTree *tree,
+                                 const float *points,
+                                 size_t count,
+                                 float max_distance,
+                                 KdrayClosestPoint *out);
+
+// The signed distance from the point `point[0..3]` to `*tree`'s mesh,
+// into `*out`: the distance to the closest point, negative inside. Inside
+// is decided by the parity of the crossings of `rays` rays in fixed
+// directions, by majority (clamped to 1..=7: 1 for closed meshes, 3 to 7
+// for open or self-intersecting ones); a shared edge or vertex is crossed
+// once. `INFINITY` for an empty mesh, NaN for a query with a NaN or
+// infinite coordinate.
+//
+// # Preconditions
+// As `kdray_closest_point`; `out` non-null and 4-byte aligned.
+//
+// # Safety
+// As the preconditions.
+KdrayStatus kdray_signed_distance(const KdrayTriangleTree *tree,
+                                  const float *point,
+                                  uint32_t rays,
+                                  float *out);
+
+// The signed distances of `count` points (`points`: `3 * count` floats),
+// into `out[0..count]`: each as `kdray_signed_distance`.
+//
+// # Preconditions
+// As `kdray_closest_points`, with `out` holding `count` floats.
+//
+// # Safety
+// As the preconditions.
+KdrayStatus kdray_signed_distances(const KdrayTriangleTree *tree,
+                                   const float *points,
+                                   size_t count,
+                                   uint32_t rays,
+                                   float *out);
 
 // Opens the point-tree blob `blob[0..len]` (written by `kdray
 // build-points`, any `--dim` from 1 to 16, `float` or `--f64`) into

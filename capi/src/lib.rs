@@ -22,12 +22,17 @@
 #[cfg(feature = "std")]
 extern crate std;
 
+mod distance;
 mod handle;
 mod message;
 mod points;
 mod rays;
 mod scenes;
 
+pub use distance::{
+    kdray_closest_point, kdray_closest_points, kdray_signed_distance, kdray_signed_distances,
+    KdrayClosestPoint,
+};
 pub use handle::{KdrayPointTree, KdrayScene, KdrayTriangleTree, KDRAY_HANDLE_WORDS};
 pub use points::{
     kdray_knn, kdray_knn_f32, kdray_knn_f64, kdray_nearest, kdray_nearest_f32, kdray_nearest_f64,

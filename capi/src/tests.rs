@@ -770,3 +770,99 @@ fn treelets_give_a_stream_the_same_answers() {
     assert_eq!(s, KdrayStatus::Ok);
     assert_eq!(got, want);
 }
+
+#[test]
+fn distance_queries_are_the_kernels_and_bad_arguments_are_codes() {
+    let h = open_cube();
+    let tree = TriangleTree::from_bytes(&CUBE.bytes).unwrap();
+    let pts: Vec<[f32; 3]> = rays()
+        .iter()
+        .map(|r| [r.org_x, r.org_y, r.org_z])
+        .chain([[f32::NAN, 0.0, 0.0], [0.5, 0.5, -2.0]])
+        .collect();
+    let n = pts.len();
+    let mut out = std::vec![KdrayClosestPoint::zeroed(); n];
+    let mut signed = std::vec![0f32; n];
+    // SAFETY: live handle, `n` points and records.
+    unsafe {
+        assert_eq!(
+            kdray_closest_points(&h, pts.as_ptr().cast(), n, 0.75, out.as_mut_ptr()),
+            KdrayStatus::Ok
+        );
+        assert_eq!(
+            kdray_signed_distances(&h, pts.as_ptr().cast(), n, 1, signed.as_mut_ptr()),
+            KdrayStatus::Ok
+        );
+    }
+    for (i, q) in pts.iter().enumerate() {
+        let want = tree.closest_point_within(*q, 0.75);
+        let got = out[i];
+        match want {
+            Some(c) => assert_eq!(
+                (
+                    got.x,
+                    got.y,
+                    got.z,
+                    got.prim_id,
+                    got.u,
+                    got.v,
+                    got.distance2
+                ),
+                (
+                    c.point[0],
+                    c.point[1],
+                    c.point[2],
+                    c.prim,
+                    c.u,
+                    c.v,
+                    c.distance2
+                ),
+                "point {i}"
+            ),
+            None => assert_eq!(got.prim_id, KDRAY_MISS, "point {i}"),
+        }
+        let mut one = 0f32;
+        // SAFETY: live handle, one point, one float.
+        unsafe {
+            assert_eq!(
+                kdray_signed_distance(&h, q.as_ptr(), 1, &mut one),
+                KdrayStatus::Ok
+            )
+        };
+        assert_eq!(one.to_bits(), signed[i].to_bits(), "point {i}");
+        let d = tree
+            .closest_point(*q)
+            .map_or(f32::NAN, |c| c.distance2.sqrt() as f32);
+        let want = if tree.contains(*q) { -d } else { d };
+        assert_eq!(signed[i].to_bits(), want.to_bits(), "point {i}");
+    }
+    assert!(out[n - 2].distance2.is_nan());
+    assert_eq!(signed[n - 1], 2.0);
+    // Null, misaligned, unopened.
+    let mut one = KdrayClosestPoint::zeroed();
+    let q = [0.0f32; 4];
+    // SAFETY: each call is refused before it reads or writes.
+    unsafe {
+        assert_eq!(
+            kdray_closest_point(&h, core::ptr::null(), 1.0, &mut one),
+            KdrayStatus::NullPointer
+        );
+        assert_eq!(
+            kdray_closest_point(&h, q.as_ptr().cast::<u8>().add(1).cast(), 1.0, &mut one),
+            KdrayStatus::Misaligned
+        );
+        assert_eq!(
+            kdray_closest_point(&CLOSED, q.as_ptr(), 1.0, &mut one),
+            KdrayStatus::NotOpen
+        );
+        assert_eq!(
+            kdray_signed_distances(&h, q.as_ptr(), usize::MAX, 1, core::ptr::null_mut()),
+            KdrayStatus::NullPointer
+        );
+        let mut f = 0f32;
+        assert_eq!(
+            kdray_signed_distances(&h, q.as_ptr(), usize::MAX, 1, &mut f),
+            KdrayStatus::BadSize
+        );
+    }
+}

@@ -115,6 +115,20 @@ static void check_arguments(const uint8_t *blob, size_t len) {
 
   /* The ray above enters the cube's z = 0 face: t = 1. */
   CHECK(kdray_closest_hit(&tree, &ray, &hit) == KDRAY_STATUS_OK && hit.t == 1.0f, "t %g", hit.t);
+
+  /* Half a unit below the cube's floor: the point straight above, at
+     distance 0.5; the cube's centre is inside (negative). */
+  const float below[3] = {0.25f, 0.5f, -0.5f}, centre[3] = {0.5f, 0.5f, 0.5f};
+  KdrayClosestPoint cp;
+  CHECK(kdray_closest_point(&tree, below, INFINITY, &cp) == KDRAY_STATUS_OK && cp.x == 0.25f &&
+            cp.y == 0.5f && cp.z == 0.0f && cp.distance2 == 0.25,
+        "closest point (%g %g %g) d2 %g", cp.x, cp.y, cp.z, cp.distance2);
+  CHECK(kdray_closest_point(&tree, below, 0.1f, &cp) == KDRAY_STATUS_OK && cp.prim_id == KDRAY_MISS,
+        "beyond the maximum distance");
+  float sd;
+  CHECK(kdray_signed_distance(&tree, below, 1, &sd) == KDRAY_STATUS_OK && sd == 0.5f, "sd %g", sd);
+  CHECK(kdray_closest_point(&tree, NULL, INFINITY, &cp) == KDRAY_STATUS_NULL_POINTER, "null point");
+  CHECK(kdray_signed_distances(&tree, centre, 1, 3, NULL) == KDRAY_STATUS_NULL_POINTER, "null out");
 }
 
 /* Packets of N rays (every third lane inactive) against the single-ray hits. */

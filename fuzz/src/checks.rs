@@ -3,7 +3,8 @@
 //!
 //! - [`blob`]: arbitrary bytes, or a valid header (correct checksum) and
 //!   arbitrary sections: `from_bytes` returns an error or a view, and with
-//!   a view tracing rays (single and packets) never panics.
+//!   a view tracing rays (single and packets) and the distance queries
+//!   (closest point, crossings, inside) never panic.
 //! - [`packet_vs_single`]: a small scene, coordinates mostly on a coarse
 //!   grid (hits on edges, vertices and split planes) plus raw floats;
 //!   packets of hostile rays with inactive lanes: lanes == single rays.
@@ -14,7 +15,9 @@
 //!   arbitrary bytes: an error or a scene whose answers are its brute
 //!   force's.
 //! - [`tree_vs_brute`]: the same scenes with every builder: the tree's
-//!   closest hit is the brute-force one bit for bit, any hit agrees.
+//!   closest hit is the brute-force one bit for bit, any hit agrees; the
+//!   closest point to each ray's origin and the crossings along it are
+//!   brute force's.
 //! - [`deforming`]: the same scenes moved over a few frames, a kept
 //!   deforming mesh's tree against brute force each frame.
 
@@ -22,9 +25,9 @@ use kdray::kernel::format::wire::{
     blob_checksum, Header, ENDIAN_CHECK, KIND_TRIANGLES, MAGIC, VERSION,
 };
 use kdray::kernel::{
-    any_hit_brute, closest_hit_brute, first_hits_brute, Batch, Hit, MortonGrid, Node, Packet,
-    Packet4, Packet8, PacketWidth, Ray, RayKey, SceneHit, ShallowTree, Treelet, Triangle,
-    TriangleTree,
+    any_hit_brute, closest_hit_brute, closest_point_brute, crossings_brute, first_hits_brute,
+    Batch, Hit, MortonGrid, Node, Packet, Packet4, Packet8, PacketWidth, Ray, RayKey, SceneHit,
+    ShallowTree, Treelet, Triangle, TriangleTree,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
@@ -203,6 +206,11 @@ pub fn blob(data: &[u8]) {
     for _ in 0..8 {
         let ray = rays.ray();
         let _ = (tree.closest_hit(&ray), tree.any_hit(&ray));
+        let _ = (
+            tree.closest_point_within(ray.origin, ray.tmax),
+            tree.contains_voting(ray.origin, 3),
+            tree.crossings(ray.origin, ray.dir),
+        );
         let p: Packet8 = rays.packet();
         let _ = (
             tree.closest_hit_packet(&p),
@@ -403,6 +411,20 @@ pub fn tree_vs_brute(data: &[u8]) {
                 got.map(|h| h.bits()),
                 first.map(|h| h.bits()),
                 "{kind:?} first"
+            );
+            // The ray's origin as a distance query (within its tmax as
+            // the maximum distance) and its direction for the crossings.
+            let q = ray.origin;
+            assert_eq!(
+                tree.closest_point_within(q, ray.tmax).map(|c| c.bits()),
+                closest_point_brute(&tris, q, ray.tmax).map(|c| c.bits()),
+                "{kind:?} closest point: {q:?} within {}",
+                ray.tmax
+            );
+            assert_eq!(
+                tree.crossings(q, ray.dir),
+                crossings_brute(&tris, q, ray.dir),
+                "{kind:?} crossings: {ray:?}"
             );
             // The depth-bounded walk, for the trees it takes (most here).
             if let Ok(shallow) = ShallowTree::<16>::new(*tree) {

@@ -149,11 +149,11 @@ pub use scene::{
     MESH_ALIGN,
 };
 pub use triangle::{
-    any_hit_brute, bounds_in_range, closest_hit_brute, first_hits_brute, SurfacePoint, Triangle,
-    MAX_COORD,
+    any_hit_brute, bounds_in_range, closest_hit_brute, closest_point_brute, crossings_brute,
+    first_hits_brute, ClosestPoint, SurfacePoint, Triangle, MAX_COORD,
 };
 pub use triangle_tree::packet::{Packet, Packet16, Packet4, Packet8, PacketWidth};
 pub use triangle_tree::{
     Batch, Counting, PacketLanes, ShallowTree, TraceBatch, TraversalCounts, Treelet,
-    TreeletBufferTooSmall, TreeletTree, TriangleTree,
+    TreeletBufferTooSmall, TreeletTree, TriangleTree, INSIDE_RAYS,
 };

@@ -17,6 +17,7 @@ pub mod builders;
 pub mod camera;
 pub mod deforming;
 pub mod demo_scene;
+pub mod distance;
 pub mod instances;
 pub mod io;
 pub mod memory;

@@ -1455,3 +1455,122 @@ fn small_rough_edges_are_smoothed() {
         stderr(&o)
     );
 }
+
+/// A closed unit cube, [0, 1]^3, as OBJ quads.
+const CUBE_OBJ: &[u8] = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+f 1 2 3 4\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+
+fn point_bytes(points: &[[f32; 3]]) -> Vec<u8> {
+    points
+        .iter()
+        .flatten()
+        .flat_map(|f| f.to_le_bytes())
+        .collect()
+}
+
+/// The `.dist` records: point, triangle, u, v, distance.
+fn dist_records(bytes: &[u8]) -> Vec<([f32; 3], u32, f32, f32, f32)> {
+    let f = |c: &[u8], i: usize| f32::from_le_bytes(c[i * 4..i * 4 + 4].try_into().unwrap());
+    bytes
+        .chunks_exact(28)
+        .map(|c| {
+            let prim = u32::from_le_bytes(c[12..16].try_into().unwrap());
+            ([f(c, 0), f(c, 1), f(c, 2)], prim, f(c, 4), f(c, 5), f(c, 6))
+        })
+        .collect()
+}
+
+#[test]
+fn distance_writes_closest_points_and_signed_distances() {
+    let obj = write(&tmp("dcube.obj"), CUBE_OBJ);
+    let tree = tmp("dcube.kdt").display().to_string();
+    assert!(kdray(&["build", &obj, "-o", &tree]).status.success());
+    let pts = write(
+        &tmp("d.pts"),
+        &point_bytes(&[[0.5, 0.5, -2.0], [0.5, 0.5, 0.25], [3.0, 0.5, 0.5]]),
+    );
+    let out = tmp("d.dist");
+    let o = kdray(&["distance", &tree, &pts, "-o", &out.display().to_string()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("3 queries"), "{}", stdout(&o));
+    let r = dist_records(&std::fs::read(&out).unwrap());
+    assert_eq!(r.len(), 3);
+    assert_eq!((r[0].0, r[0].4), ([0.5, 0.5, 0.0], 2.0));
+    assert_eq!(r[1].4, 0.25);
+    assert_eq!((r[2].0, r[2].4), ([1.0, 0.5, 0.5], 2.0));
+    // Signed: the middle point is inside.
+    let o = kdray(&[
+        "distance",
+        &tree,
+        &pts,
+        "-o",
+        &out.display().to_string(),
+        "--signed",
+        "--threads",
+        "1",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = dist_records(&std::fs::read(&out).unwrap());
+    assert_eq!([r[0].4, r[1].4, r[2].4], [2.0, -0.25, 2.0]);
+    // Within 1: the first and last have no point.
+    let o = kdray(&[
+        "distance",
+        &tree,
+        &pts,
+        "-o",
+        &out.display().to_string(),
+        "--max-distance",
+        "1",
+        "--signed",
+        "--votes",
+        "3",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = dist_records(&std::fs::read(&out).unwrap());
+    assert_eq!((r[0].1, r[0].4), (u32::MAX, f32::INFINITY));
+    assert!(r[0].0[0].is_nan());
+    assert_eq!((r[1].4, r[2].4), (-0.25, f32::INFINITY));
+}
+
+#[test]
+fn distance_refuses_bad_input_by_name() {
+    let obj = write(&tmp("dcube2.obj"), CUBE_OBJ);
+    let tree = tmp("dcube2.kdt").display().to_string();
+    assert!(kdray(&["build", &obj, "-o", &tree]).status.success());
+    let out = tmp("bad.dist").display().to_string();
+    let good = write(&tmp("good.pts"), &point_bytes(&[[0.5; 3]]));
+    let nan = write(
+        &tmp("nan.pts"),
+        &point_bytes(&[[0.5; 3], [f32::NAN, 0.0, 0.0]]),
+    );
+    let short = write(&tmp("short.pts"), &[0u8; 13]);
+    let cases: [(&[&str], &str); 5] = [
+        (&[&tree, &nan, "-o", &out], "point 1"),
+        (&[&tree, &short, "-o", &out], "not a multiple"),
+        (
+            &[&tree, &good, "-o", &out, "--max-distance=-1"],
+            "--max-distance",
+        ),
+        (
+            &[&tree, &good, "-o", &out, "--max-distance", "NaN"],
+            "--max-distance",
+        ),
+        (
+            &[&tree, &good, "-o", &out, "--signed", "--votes", "9"],
+            "--votes 9",
+        ),
+    ];
+    for (args, want) in cases {
+        let mut all = vec!["distance"];
+        all.extend_from_slice(args);
+        let o = kdray(&all);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        assert!(stderr(&o).contains(want), "{args:?}: {}", stderr(&o));
+        assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+    }
+    assert!(!Path::new(&out).exists(), "a refused run wrote {out}");
+    // Not a tree.
+    let o = kdray(&["distance", &good, &good, "-o", &out]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("good.pts"), "{}", stderr(&o));
+}

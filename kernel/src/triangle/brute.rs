@@ -30,6 +30,26 @@ pub fn any_hit_brute(triangles: &[Triangle], ray: &Ray) -> bool {
     })
 }
 
+/// The brute-force crossings: how many of `triangles` the ray from `q`
+/// along `dir` crosses at `t >= 0` by the crossing test (a shared edge or
+/// vertex of a closed mesh once). The oracle
+/// [`TriangleTree::crossings`](crate::TriangleTree::crossings) is held to.
+#[must_use]
+pub fn crossings_brute(triangles: &[Triangle], q: [f32; 3], dir: [f32; 3]) -> u32 {
+    let ray = Ray {
+        origin: q,
+        tmin: 0.0,
+        dir,
+        tmax: f32::INFINITY,
+    };
+    ShearedRay::new(&ray).map_or(0, |sr| {
+        triangles
+            .iter()
+            .filter(|tri| sr.crossing(tri, 0.0, f32::INFINITY).is_some())
+            .count() as u32
+    })
+}
+
 /// The brute-force first hits: the first `out.len()` hits of `ray` in
 /// `[tmin, tmax]` over all of `triangles`, sorted by `t` and at equal `t`
 /// by the lower triangle index, written to the front of `out`; returns

@@ -78,6 +78,21 @@ impl<'o, R: Ranked> FirstHits<'o, R> {
         &mut self,
         sr: &ShearedRay,
         tri: &Triangle,
+        key: (u32, u32),
+        tmin: f32,
+        tmax: f32,
+    ) {
+        self.offer_by::<false>(sr, tri, key, tmin, tmax);
+    }
+
+    /// [`FirstHits::offer`]; by the crossing test
+    /// ([`ShearedRay::crossing`]: an edge or vertex of a closed mesh
+    /// crossed once) when `CROSSING`.
+    #[inline]
+    pub(crate) fn offer_by<const CROSSING: bool>(
+        &mut self,
+        sr: &ShearedRay,
+        tri: &Triangle,
         (prim, tag): (u32, u32),
         tmin: f32,
         tmax: f32,
@@ -89,7 +104,13 @@ impl<'o, R: Ranked> FirstHits<'o, R> {
         if kept.iter().any(|h| h.key() == key) {
             return;
         }
-        let Some(h) = sr.intersect(tri, tmin, self.bound(tmax)) else {
+        let bound = self.bound(tmax);
+        let h = if CROSSING {
+            sr.crossing(tri, tmin, bound)
+        } else {
+            sr.intersect(tri, tmin, bound)
+        };
+        let Some(h) = h else {
             return;
         };
         let at = kept

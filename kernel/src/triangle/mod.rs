@@ -55,13 +55,16 @@ mod first;
 pub(crate) mod lanes;
 #[cfg(target_arch = "x86_64")]
 mod plane_x86;
+mod point;
 mod spawn;
 mod watertight;
 
 pub(crate) use brute::offer_every_triangle;
-pub use brute::{any_hit_brute, closest_hit_brute, first_hits_brute};
+pub use brute::{any_hit_brute, closest_hit_brute, crossings_brute, first_hits_brute};
 pub(crate) use closest::Closest;
 pub(crate) use first::{FirstHits, Ranked};
+pub(crate) use point::{box_distance2, NearestTriangle};
+pub use point::{closest_point_brute, ClosestPoint};
 pub use spawn::SurfacePoint;
 
 pub(crate) use exact_t::*;

@@ -125,7 +125,30 @@ impl ShearedRay {
         tmin: f32,
         tmax: f32,
     ) -> Option<(TriangleHit, (f32, f32), bool)> {
-        let (e, (t_est, slack, shape)) = self.edges(tri)?;
+        self.window_by::<false>(tri, tmin, tmax)
+    }
+
+    /// The crossing test of `tri` over `[tmin, tmax]`: [`ShearedRay::intersect`]
+    /// with the strict fill rule on edges the ray passes exactly through
+    /// ([`ShearedRay::edges`]), so a ray through an edge or a vertex of a
+    /// closed mesh crosses it once.
+    #[inline(always)]
+    #[must_use]
+    pub(crate) fn crossing(&self, tri: &Triangle, tmin: f32, tmax: f32) -> Option<TriangleHit> {
+        let (e, window, _) = self.window_by::<true>(tri, tmin, tmax)?;
+        let t = plane_t(&self.org, &self.dir, tri);
+        exact_t_hits(t, window, tmin, tmax).then_some(TriangleHit { t, ..e })
+    }
+
+    /// [`ShearedRay::window`], by the crossing rule when `CROSSING`.
+    #[inline(always)]
+    fn window_by<const CROSSING: bool>(
+        &self,
+        tri: &Triangle,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<(TriangleHit, (f32, f32), bool)> {
+        let (e, (t_est, slack, shape)) = self.edges::<CROSSING>(tri)?;
         let (lo, hi) = (t_est - slack, t_est + slack);
         if hi < tmin || lo > tmax {
             return None;
@@ -136,8 +159,24 @@ impl ShearedRay {
     /// The watertight decision: the edge functions and determinant of a
     /// ray that passes through `tri` (with its `t` estimate left in the
     /// hit, unused) and the estimate's window, or `None` for a miss.
+    ///
+    /// With `CROSSING`, an edge function that is exactly zero (the ray
+    /// passes through that edge's line) takes the sign it would have were
+    /// the ray moved by an infinitesimal `(ε², ε)` in the sheared plane:
+    /// the sign of `first.x - second.x`, or if that is zero of
+    /// `second.y - first.y`, for the edge's two projected vertices in the
+    /// order its edge function names them. Two triangles sharing an edge
+    /// see it in opposite orders, so when they lie on either side of it
+    /// the moved ray passes through exactly one of them; around a shared
+    /// vertex it passes through exactly one triangle of a fan that covers
+    /// it; along a silhouette (both on one side) through both or neither.
+    /// So a ray crosses a closed mesh an odd number of times exactly when
+    /// its origin lies inside (for the inside test: `triangle_tree::inside`).
     #[inline(always)]
-    fn edges(&self, tri: &Triangle) -> Option<(TriangleHit, (f32, f32, f32))> {
+    fn edges<const CROSSING: bool>(
+        &self,
+        tri: &Triangle,
+    ) -> Option<(TriangleHit, (f32, f32, f32))> {
         // Clamped as in leaf_lanes: the axes are below 3 by construction,
         // but the optimiser cannot see it through the field, and a bounds
         // check is a panic path (firmware/); the clamps are hoisted out of
@@ -179,6 +218,29 @@ impl ShearedRay {
         // MAX_COORD), and their signs mean nothing.
         if det == 0.0 || !det.is_finite() {
             return None;
+        }
+        if CROSSING && ((u == 0.0) | (v == 0.0) | (w == 0.0)) {
+            let inside = det > 0.0;
+            // The moved ray's side of the edge `first -> second` whose
+            // edge function is `f` (module docs): coordinate differences
+            // of `f32` values have exact signs.
+            let owns = |f: f32, first: (f32, f32), second: (f32, f32)| {
+                if f != 0.0 {
+                    return true;
+                }
+                let positive = if first.0 != second.0 {
+                    first.0 > second.0
+                } else if first.1 != second.1 {
+                    second.1 > first.1
+                } else {
+                    return false;
+                };
+                positive == inside
+            };
+            let (a, b, c) = ((ax, ay), (bx, by), (cx, cy));
+            if !(owns(u, b, c) & owns(v, c, a) & owns(w, a, b)) {
+                return None;
+            }
         }
         let window = t_window([ax, ay, bx, by, cx, cy], [az, bz, cz], [u, v, w], det, sz);
         Some((

@@ -11,7 +11,7 @@ use crate::triangle::{dominant_axis, FirstHits, Ranked, ShearedRay, Triangle};
 
 /// The first-hits search: every triangle of a leaf against `[tmin, the
 /// buffer's bound]`, its hits tagged `tag` (a scene's instance).
-struct FirstVisit<'r, 'o, R> {
+struct FirstVisit<'r, 'o, R, const CROSSING: bool> {
     sr: &'r ShearedRay,
     tmin: f32,
     tmax: f32,
@@ -19,7 +19,9 @@ struct FirstVisit<'r, 'o, R> {
     first: &'r mut FirstHits<'o, R>,
 }
 
-impl<'a, T: Tally, R: Ranked> Visit<'a, T> for FirstVisit<'_, '_, R> {
+impl<'a, T: Tally, R: Ranked, const CROSSING: bool> Visit<'a, T>
+    for FirstVisit<'_, '_, R, CROSSING>
+{
     #[inline(always)]
     fn bound(&self) -> f32 {
         self.first.bound(self.tmax)
@@ -31,7 +33,7 @@ impl<'a, T: Tally, R: Ranked> Visit<'a, T> for FirstVisit<'_, '_, R> {
             if let Some(tri) = tris.get(p as usize) {
                 tally.triangles(1);
                 self.first
-                    .offer(self.sr, tri, (p, self.tag), self.tmin, self.tmax);
+                    .offer_by::<CROSSING>(self.sr, tri, (p, self.tag), self.tmin, self.tmax);
             }
         }
         false
@@ -105,13 +107,24 @@ impl TriangleTree<'_> {
         first: &mut FirstHits<'_, R>,
         tag: u32,
     ) {
+        self.first_hits_by::<R, DEPTH, false>(ray, first, tag);
+    }
+
+    /// [`TriangleTree::first_hits_into`]; by the crossing test (an edge or
+    /// vertex of a closed mesh crossed once) when `CROSSING`.
+    pub(crate) fn first_hits_by<R: Ranked, const DEPTH: usize, const CROSSING: bool>(
+        &self,
+        ray: &Ray,
+        first: &mut FirstHits<'_, R>,
+        tag: u32,
+    ) {
         let Some(cr) = CellRay::new(ray, dominant_axis(&ray.dir), &self.bounds) else {
             return;
         };
         let Some(sr) = ShearedRay::new(ray) else {
             return;
         };
-        let mut visit = FirstVisit {
+        let mut visit = FirstVisit::<R, CROSSING> {
             sr: &sr,
             tmin: ray.tmin,
             tmax: ray.tmax,

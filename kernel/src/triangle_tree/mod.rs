@@ -5,9 +5,11 @@
 
 mod batch;
 pub(crate) mod cell_ray;
+mod closest_point;
 mod counting;
 mod counts;
 mod first_hits;
+mod inside;
 mod leaf_lanes;
 pub(crate) mod packet;
 mod shallow;
@@ -23,6 +25,7 @@ pub use treelets::{Treelet, TreeletBufferTooSmall};
 
 pub use counting::Counting;
 pub use counts::TraversalCounts;
+pub use inside::INSIDE_RAYS;
 pub use shallow::ShallowTree;
 
 use crate::blob::wire::{self, Header, Sections, KIND_TRIANGLES};

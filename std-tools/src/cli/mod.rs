@@ -13,6 +13,7 @@ mod bench;
 mod build_points;
 mod build_tree;
 mod demo;
+mod distance;
 mod export_obj;
 mod info;
 mod json;
@@ -52,6 +53,9 @@ enum Command {
     BuildPoints(build_points::Args),
     /// Answer the k nearest points of every query in a file.
     Knn(knn::Args),
+    /// The closest point of a mesh to every point in a file, with its
+    /// distance (signed with --signed: negative inside).
+    Distance(distance::Args),
     /// Make a ray file: camera rays (row order or packet tiles), random
     /// rays or shadow rays.
     Rays(rays::Args),
@@ -87,6 +91,7 @@ pub(crate) fn main() -> ExitCode {
         Some(Command::Trace(a)) => trace::run(&a),
         Some(Command::BuildPoints(a)) => build_points::run(&a),
         Some(Command::Knn(a)) => knn::run(&a),
+        Some(Command::Distance(a)) => distance::run(&a),
         Some(Command::Rays(a)) => rays::run(&a),
         Some(Command::SortRays(a)) => sort_rays::run(&a),
         Some(Command::Render(a)) => render::run(&a),

@@ -1,0 +1,261 @@
+//! The closest point of the mesh to a query point: the lecture's
+//! nearest-neighbour walk over the tree's cells. Descend into the near
+//! child (the one on the query's side of the split plane) first, push the
+//! far child with its cell and the squared distance from the query to that
+//! cell, scan the leaf, then backtrack to the nearest pending cell that
+//! could still hold a nearer triangle; every cell farther than the best so
+//! far is pruned. The cells are not stored: each is the root cell cut by
+//! the split planes on the way down, so a pending far child carries its
+//! box on the stack.
+
+use super::{LeafPrims, TriangleTree};
+use crate::blob::MAX_DEPTH;
+use crate::geometry::Bounds;
+use crate::triangle::{box_distance2, ClosestPoint, NearestTriangle};
+
+/// A far child waiting on the stack: its node, its cell, and the squared
+/// distance from the query to that cell.
+#[derive(Clone, Copy)]
+struct PendingCell {
+    node: u32,
+    cell: Bounds,
+    d2: f64,
+}
+
+impl TriangleTree<'_> {
+    /// The closest point of the mesh to `q`: its triangle (the lowest
+    /// index among equally near ones), barycentrics and squared distance.
+    /// Bit for bit [`closest_point_brute`](crate::closest_point_brute)
+    /// over all triangles. `None` for an empty tree or a query with a NaN
+    /// or infinite coordinate.
+    ///
+    /// # Panics
+    /// Never. No allocation; the stack is [`MAX_DEPTH`](crate::MAX_DEPTH)
+    /// entries of 40 bytes.
+    ///
+    /// # Example
+    /// ```
+    /// use kdray_kernel::{closest_point_brute, TriangleTree};
+    /// static CUBE: &kdray_kernel::Aligned<[u8]> =
+    ///     kdray_kernel::include_aligned!("../../golden/cube-v3.kdt");
+    /// let tree = TriangleTree::from_bytes(&CUBE.bytes)?;
+    ///
+    /// // Half a unit below the cube's floor (z = 0): the point straight above.
+    /// let c = tree.closest_point([0.25, 0.5, -0.5]).unwrap();
+    /// assert_eq!(c.point, [0.25, 0.5, 0.0]);
+    /// assert_eq!(c.distance2, 0.25);
+    /// let brute = closest_point_brute(tree.triangles(), [0.25, 0.5, -0.5], f32::INFINITY);
+    /// assert_eq!(c.bits(), brute.unwrap().bits());
+    /// // Nothing within a tenth of a unit.
+    /// assert!(tree.closest_point_within([0.25, 0.5, -0.5], 0.1).is_none());
+    /// assert!(tree.closest_point([f32::NAN, 0.0, 0.0]).is_none());
+    /// # Ok::<(), kdray_kernel::BlobError>(())
+    /// ```
+    #[must_use]
+    pub fn closest_point(&self, q: [f32; 3]) -> Option<ClosestPoint> {
+        self.closest_point_within(q, f32::INFINITY)
+    }
+
+    /// [`TriangleTree::closest_point`] among the points within
+    /// `max_distance` of `q` (at distance `<= max_distance`, compared
+    /// squared in `f64`). `None` also when nothing lies that close, or
+    /// `max_distance` is NaN or negative.
+    #[must_use]
+    pub fn closest_point_within(&self, q: [f32; 3], max_distance: f32) -> Option<ClosestPoint> {
+        let b = self.bounds;
+        let scale = b
+            .min
+            .iter()
+            .chain(&b.max)
+            .fold(0.0f32, |m, c| m.max(c.abs()));
+        let mut best = NearestTriangle::new(q, max_distance, scale)?;
+        self.nearest_triangle(&mut best);
+        best.answer()
+    }
+
+    /// The walk of the module docs, into `best`.
+    ///
+    /// The stack holds at most one far child per level, so
+    /// [`MAX_DEPTH`] entries suffice for a validated tree; for an
+    /// unvalidated one a full stack drops the far child (a wrong answer,
+    /// never a panic), and the walk stops after as many node visits as
+    /// there are nodes (a blob whose children loop never hangs it).
+    fn nearest_triangle(&self, best: &mut NearestTriangle) {
+        let q = best.q;
+        let mut stack = [PendingCell {
+            node: 0,
+            cell: Bounds::ZERO,
+            d2: 0.0,
+        }; MAX_DEPTH as usize];
+        let mut len = 0usize;
+        let mut visits_left = self.nodes.len();
+        let (mut node_idx, mut cell) = (0u32, self.bounds);
+        if box_distance2(&cell, &q) > best.cut() {
+            return;
+        }
+        'descend: loop {
+            let Some(&(mut node)) = self.nodes.get(node_idx as usize) else {
+                return;
+            };
+            // Walk down to a leaf, near child first.
+            loop {
+                if visits_left == 0 {
+                    return;
+                }
+                visits_left -= 1;
+                if node.is_leaf() {
+                    break;
+                }
+                let axis = node.axis_bits().min(2);
+                // Kept inside the cell, so a cell is never inverted (a
+                // validated split lies in it already).
+                let split = node.split().max(cell.min[axis]).min(cell.max[axis]);
+                let (below, above) = cell.split(axis, split);
+                let child = node.upper();
+                // The near child holds the query's side (coordinates
+                // `<= split` below): its cell is as near as its parent's.
+                let above_near = q[axis] > f64::from(split);
+                let (near, far, near_cell, far_cell) = if above_near {
+                    (child.wrapping_add(1), child, above, below)
+                } else {
+                    (child, child.wrapping_add(1), below, above)
+                };
+                // The far child, unless it is an empty cell or farther
+                // than the best so far.
+                let far_full = self
+                    .nodes
+                    .get(far as usize)
+                    .is_some_and(|n| !n.is_empty_leaf());
+                if far_full {
+                    let d2 = box_distance2(&far_cell, &q);
+                    if d2 <= best.cut() {
+                        if let Some(slot) = stack.get_mut(len) {
+                            *slot = PendingCell {
+                                node: far,
+                                cell: far_cell,
+                                d2,
+                            };
+                            len += 1;
+                        }
+                    }
+                }
+                let Some(&n) = self.nodes.get(near as usize) else {
+                    return;
+                };
+                (node, cell) = (n, near_cell);
+            }
+            match self.leaf_prims(node) {
+                LeafPrims::One(p) => self.offer(best, p),
+                LeafPrims::Run(run) => {
+                    for &p in run {
+                        self.offer(best, p);
+                    }
+                }
+            }
+            // Backtrack: the last pushed far child still within the cut.
+            while len > 0 {
+                len -= 1;
+                let Some(&p) = stack.get(len) else {
+                    return;
+                };
+                if p.d2 <= best.cut() {
+                    (node_idx, cell) = (p.node, p.cell);
+                    continue 'descend;
+                }
+            }
+            return;
+        }
+    }
+
+    #[inline(always)]
+    fn offer(&self, best: &mut NearestTriangle, prim: u32) {
+        if let Some(tri) = self.triangles.get(prim as usize) {
+            best.offer_boxed(tri, prim);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use crate::test_rng::Rng;
+    use crate::triangle::{closest_point_brute, Triangle};
+    use crate::Node;
+    use std::vec::Vec;
+
+    /// A hand-built tree over `tris`: split at x = 0, then the above side
+    /// at y = 0; every triangle listed in every leaf whose cell it touches.
+    fn hand_tree(tris: &[Triangle]) -> (Vec<Node>, Vec<u32>, Bounds) {
+        let b = tris
+            .iter()
+            .fold(crate::geometry::Bounds::EMPTY, |b, t| b.union(&t.bounds()));
+        let b = Bounds {
+            min: b.min.map(|c| c.min(-1.0)),
+            max: b.max.map(|c| c.max(1.0)),
+        };
+        let cells = [
+            b.split(0, 0.0).0,
+            b.split(0, 0.0).1.split(1, 0.0).0,
+            b.split(0, 0.0).1.split(1, 0.0).1,
+        ];
+        let mut prims = Vec::new();
+        let mut leaves = Vec::new();
+        for c in cells {
+            let start = prims.len() as u32;
+            for (i, t) in tris.iter().enumerate() {
+                let tb = t.bounds();
+                if (0..3).all(|a| tb.min[a] <= c.max[a] && tb.max[a] >= c.min[a]) {
+                    prims.push(i as u32);
+                }
+            }
+            let n = prims.len() as u32 - start;
+            leaves.push(Node::leaf(n, start).unwrap());
+        }
+        let nodes = std::vec![
+            Node::interior(crate::Axis::X, 0.0, 2).unwrap(),
+            Node::EMPTY_LEAF,
+            leaves[0],
+            Node::interior(crate::Axis::Y, 0.0, 4).unwrap(),
+            leaves[1],
+            leaves[2],
+        ];
+        (nodes, prims, b)
+    }
+
+    #[test]
+    fn random_queries_match_brute_force_bit_for_bit() {
+        let mut r = Rng(0x9e37_79b9_7f4a_7c15);
+        let mut tris = Vec::new();
+        for _ in 0..40 {
+            let c = [r.f() * 4.0 - 2.0, r.f() * 4.0 - 2.0, r.f() * 4.0 - 2.0];
+            tris.push(Triangle {
+                v: core::array::from_fn(|_| core::array::from_fn(|a| c[a] + r.f() - 0.5)),
+            });
+        }
+        // A duplicate of triangle 3 at index 40: every tie goes to 3.
+        tris.push(tris[3]);
+        let (nodes, prims, b) = hand_tree(&tris);
+        let tree = TriangleTree::from_parts(&nodes, &prims, &tris, b).unwrap();
+        for i in 0..2000 {
+            let q = if i % 4 == 0 {
+                // On a vertex of a triangle: distance 0.
+                tris[i % tris.len()].v[i % 3]
+            } else {
+                core::array::from_fn(|_| r.f() * 8.0 - 4.0)
+            };
+            for max in [f32::INFINITY, 0.5] {
+                let a = tree.closest_point_within(q, max).map(|c| c.bits());
+                let want = closest_point_brute(&tris, q, max).map(|c| c.bits());
+                assert_eq!(a, want, "{q:?} {max}");
+            }
+        }
+    }
+
+    #[test]
+    fn empty_tree_and_bad_queries_miss() {
+        let nodes = [Node::EMPTY_LEAF, Node::EMPTY_LEAF];
+        let tree = TriangleTree::from_parts(&nodes, &[], &[], Bounds::ZERO).unwrap();
+        assert_eq!(tree.closest_point([0.0; 3]), None);
+    }
+}

@@ -1,0 +1,188 @@
+//! Distance queries over slices of points on all cores: the closest
+//! point, the distance, the signed distance and occupancy of every query,
+//! each one call of the kernel's query ([`TriangleTree::closest_point_within`],
+//! [`TriangleTree::contains`], [`TriangleTree::contains_voting`]) on the
+//! current rayon pool. Every answer is the kernel's, whatever the thread
+//! count.
+//!
+//! The distance is `sqrt(distance2)` of the kernel's `f64` squared
+//! distance, rounded once to `f32`; the signed distance is negative inside
+//! (the sign is the kernel's `contains` by the chosen [`InsideRule`]).
+
+use bytemuck::{Pod, Zeroable};
+use kdray_kernel::{ClosestPoint, TriangleTree, MISS};
+use rayon::prelude::*;
+
+/// How inside and outside are told apart.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum InsideRule {
+    /// The parity of one ray's crossings (closed meshes; the default).
+    #[default]
+    Parity,
+    /// The majority of this many rays (1 to 7), each by parity: for open
+    /// or self-intersecting meshes.
+    Vote(u32),
+}
+
+impl InsideRule {
+    /// Is `q` inside the mesh of `tree` by this rule?
+    #[must_use]
+    pub fn contains(self, tree: &TriangleTree<'_>, q: [f32; 3]) -> bool {
+        match self {
+            InsideRule::Parity => tree.contains(q),
+            InsideRule::Vote(n) => tree.contains_voting(q, n),
+        }
+    }
+}
+
+/// One `.dist` record (docs/formats.md): the closest point, its triangle,
+/// barycentrics and the distance. `repr(C)`, Pod, 28 bytes.
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+#[repr(C)]
+pub struct DistanceRecord {
+    /// The closest point; NaN when there is none within the maximum
+    /// distance (or the query is not finite).
+    pub point: [f32; 3],
+    /// Its triangle; [`MISS`] (0xFFFFFFFF) when there is none.
+    pub prim: u32,
+    /// Barycentric weight of the triangle's second vertex (NaN for none).
+    pub u: f32,
+    /// Barycentric weight of its third vertex (NaN for none).
+    pub v: f32,
+    /// The distance (negative inside for a signed query); `+inf` (`-inf`
+    /// inside) with no triangle within the maximum distance, NaN for a
+    /// query that is not finite.
+    pub distance: f32,
+}
+
+const _: () = assert!(std::mem::size_of::<DistanceRecord>() == 28);
+
+impl DistanceRecord {
+    /// The record of a kernel answer (`None`: nothing within reach) for a
+    /// query whose coordinates are finite or not (`finite`).
+    #[must_use]
+    pub fn new(c: Option<ClosestPoint>, finite: bool) -> DistanceRecord {
+        match c {
+            Some(c) => DistanceRecord {
+                point: c.point,
+                prim: c.prim,
+                u: c.u,
+                v: c.v,
+                distance: distance(&c),
+            },
+            None => DistanceRecord {
+                point: [f32::NAN; 3],
+                prim: MISS,
+                u: f32::NAN,
+                v: f32::NAN,
+                distance: if finite { f32::INFINITY } else { f32::NAN },
+            },
+        }
+    }
+}
+
+/// The distance of a closest point: the square root of its `f64` squared
+/// distance, rounded once.
+#[must_use]
+pub fn distance(c: &ClosestPoint) -> f32 {
+    c.distance2.sqrt() as f32
+}
+
+/// The distance from `q` to the mesh, as a [`DistanceRecord`] has it.
+fn distance_to(tree: &TriangleTree<'_>, q: [f32; 3]) -> f32 {
+    let finite = q.iter().all(|c| c.is_finite());
+    DistanceRecord::new(tree.closest_point(q), finite).distance
+}
+
+/// Queries per rayon task: enough work to amortise the task.
+const CHUNK: usize = 256;
+
+/// The closest point of every query within `max_distance`
+/// (`f32::INFINITY`: no limit), into `out` (`None`: nothing within
+/// reach, or a query or `max_distance` the kernel refuses); on the current
+/// rayon pool. Pairs queries and `out` slots up to the shorter of the two.
+pub fn closest_points(
+    tree: &TriangleTree<'_>,
+    queries: &[[f32; 3]],
+    max_distance: f32,
+    out: &mut [Option<ClosestPoint>],
+) {
+    out.par_chunks_mut(CHUNK)
+        .zip(queries.par_chunks(CHUNK))
+        .for_each(|(out, queries)| {
+            for (o, q) in out.iter_mut().zip(queries) {
+                *o = tree.closest_point_within(*q, max_distance);
+            }
+        });
+}
+
+/// The `.dist` record of every query (see [`DistanceRecord`]): the
+/// closest point within `max_distance` and its distance, signed by `sign`
+/// when given (negative inside); on the current rayon pool.
+pub fn distance_records(
+    tree: &TriangleTree<'_>,
+    queries: &[[f32; 3]],
+    max_distance: f32,
+    sign: Option<InsideRule>,
+    out: &mut [DistanceRecord],
+) {
+    out.par_chunks_mut(CHUNK)
+        .zip(queries.par_chunks(CHUNK))
+        .for_each(|(out, queries)| {
+            for (o, q) in out.iter_mut().zip(queries) {
+                let finite = q.iter().all(|c| c.is_finite());
+                let c = tree.closest_point_within(*q, max_distance);
+                *o = DistanceRecord::new(c, finite);
+                if sign.is_some_and(|rule| rule.contains(tree, *q)) {
+                    o.distance = -o.distance;
+                }
+            }
+        });
+}
+
+/// The distance of every query to the mesh (`+inf` for an empty mesh, NaN
+/// for a query that is not finite), into `out`; on the current rayon pool.
+pub fn distances(tree: &TriangleTree<'_>, queries: &[[f32; 3]], out: &mut [f32]) {
+    out.par_chunks_mut(CHUNK)
+        .zip(queries.par_chunks(CHUNK))
+        .for_each(|(out, queries)| {
+            for (o, q) in out.iter_mut().zip(queries) {
+                *o = distance_to(tree, *q);
+            }
+        });
+}
+
+/// The signed distance of every query (negative inside by `rule`), into
+/// `out`; on the current rayon pool.
+pub fn signed_distances(
+    tree: &TriangleTree<'_>,
+    queries: &[[f32; 3]],
+    rule: InsideRule,
+    out: &mut [f32],
+) {
+    out.par_chunks_mut(CHUNK)
+        .zip(queries.par_chunks(CHUNK))
+        .for_each(|(out, queries)| {
+            for (o, q) in out.iter_mut().zip(queries) {
+                let d = distance_to(tree, *q);
+                *o = if rule.contains(tree, *q) { -d } else { d };
+            }
+        });
+}
+
+/// Whether every query lies inside the mesh by `rule`, into `out`; on the
+/// current rayon pool.
+pub fn occupancy(
+    tree: &TriangleTree<'_>,
+    queries: &[[f32; 3]],
+    rule: InsideRule,
+    out: &mut [bool],
+) {
+    out.par_chunks_mut(CHUNK)
+        .zip(queries.par_chunks(CHUNK))
+        .for_each(|(out, queries)| {
+            for (o, q) in out.iter_mut().zip(queries) {
+                *o = rule.contains(tree, *q);
+            }
+        });
+}

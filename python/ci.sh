@@ -7,7 +7,7 @@
 # Usage: bash python/ci.sh   (KDRAY_PY_VENV=DIR for another venv folder)
 set -euo pipefail
 cd "$(dirname "$0")"
-VENV=${KDRAY_PY_VENV:-../target/py-venv}
+VENV=$(realpath -m "${KDRAY_PY_VENV:-../target/py-venv}")
 [ -x "$VENV/bin/python" ] || python3 -m venv "$VENV"
 "$VENV/bin/pip" install -q --upgrade pip
 "$VENV/bin/pip" install -q maturin numpy pytest hypothesis scipy trimesh "dask[array,distributed]" ruff mypy

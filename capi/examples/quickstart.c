@@ -4,7 +4,7 @@
  * program returns 1 without tracing: `hit` is read only after a call that
  * returned KDRAY_STATUS_OK has written it.
  *
- * usage: quickstart TREE.kdt      (e.g. kernel/golden/cube-v2.kdt)
+ * usage: quickstart TREE.kdt      (e.g. kernel/golden/cube-v3.kdt)
  */
 #include "kdray.h"
 

@@ -39,8 +39,8 @@ g++ $cxxflags capi/examples/camera.cpp -L"$lib" -l:libkdray_capi.so -Wl,-rpath,"
 # The README's C quick start, a whole program: it answers on the golden
 # cube and returns 1, without tracing, on a blob the library refuses.
 gcc $cflags capi/examples/quickstart.c "$lib/libkdray_capi.a" $native -o "$out/quickstart"
-"$out/quickstart" kernel/golden/cube-v2.kdt | grep -q "^hit triangle 1 at t = 1 "
-head -c 100 kernel/golden/cube-v2.kdt > "$out/cut.kdt"
+"$out/quickstart" kernel/golden/cube-v3.kdt | grep -q "^hit triangle 1 at t = 1 "
+head -c 100 kernel/golden/cube-v3.kdt > "$out/cut.kdt"
 if "$out/quickstart" "$out/cut.kdt" 2> "$out/quickstart.err"; then
   echo "quickstart accepted a truncated blob" >&2
   exit 1

@@ -9,19 +9,19 @@
 //!
 //! Static meshes are never rebuilt: their trees (and bounds) are kept and
 //! shared by every instance. Per frame an engine
-//! 1. gives each moved instance its new transform ([`Instance::new`]
+//! 1. gives each moved instance its new transform ([`Instance::new`](kdray_kernel::Instance::new)
 //!    computes the inverse once);
 //! 2. recomputes the world boxes from the kept mesh bounds
 //!    ([`world_boxes`]) and rebuilds only the top level over them
-//!    ([`build_top_level`], [`builders::fast`]), or keeps a [`TopLevel`]
+//!    ([`build_top_level`], [`builders::fast`](crate::builders::fast)), or keeps a [`TopLevel`]
 //!    and refills its planes ([`TopLevel::update`]; docs/results.md
 //!    `## Scenes` has both times for 10,000 instances);
 //! 3. updates the tree of each deforming mesh
 //!    ([`crate::deforming::DeformingMesh::update`]: its planes kept, its
-//!    moved triangles listed again, rebuilt with [`BuilderKind::Fast`]
+//!    moved triangles listed again, rebuilt with [`BuilderKind::Fast`](crate::builders::BuilderKind::Fast)
 //!    when drifted) and takes its view (its bounds change too);
 //! 4. assembles the scene from the trees, the instances and the new top
-//!    level ([`Scene::from_parts`], which validates them; no copy).
+//!    level ([`Scene::from_parts`](kdray_kernel::Scene::from_parts), which validates them; no copy).
 //!
 //! ```
 //! use kdray_tools::blob::Blob;

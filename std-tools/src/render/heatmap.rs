@@ -42,7 +42,7 @@ pub struct Heatmap {
 }
 
 /// The traversal cost of every camera ray of `params` in `tree` (single
-/// rays, [`TriangleTree::closest_hit_counted`]); `progress` is called once
+/// rays, [`TriangleTree::counting`]); `progress` is called once
 /// per image row.
 pub fn render_heatmap(
     tree: &TriangleTree<'_>,

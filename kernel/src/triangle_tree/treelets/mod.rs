@@ -42,7 +42,7 @@
 //! level test and the third level's exits replace the child reads).
 //!
 //! The treelets live in the caller's memory ([`TriangleTree::treelets_into`]
-//! writes them and returns the [`TreeletTree`] that uses them); the blob is
+//! writes them and returns the [`TreeletTree`](crate::TreeletTree) that uses them); the blob is
 //! unchanged.
 
 mod build;
@@ -68,11 +68,11 @@ pub struct Treelet {
 
 const _: () = assert!(core::mem::size_of::<Treelet>() == 64);
 
-/// [`TriangleTree::treelets_into`]'s buffer is shorter than the tree's
+/// [`TriangleTree::treelets_into`](crate::TriangleTree::treelets_into)'s buffer is shorter than the tree's
 /// treelets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TreeletBufferTooSmall {
-    /// The tree's treelets ([`TriangleTree::treelet_count`]).
+    /// The tree's treelets ([`TriangleTree::treelet_count`](crate::TriangleTree::treelet_count)).
     pub needed: usize,
     /// The buffer's length.
     pub have: usize,

@@ -12,7 +12,7 @@
 //! the Morton order of its origins ([`Order::Auto`]), each answer written
 //! back to its ray's slot: neighbouring rays then share the cells, nodes
 //! and triangles their walks read, which stay in cache (where in the
-//! batch's order each walk waits on memory), and the slice entry points'
+//! batch's order each walk waits on memory), and the kernel's batch calls'
 //! occluder cache answers many of them. The answers are the same: each
 //! ray's walk does not depend on the others. `matrix.sh`'s 1M shadow
 //! rays, one core, the sort (~40 ms) included: single rays 1.9-2.6x,

@@ -34,7 +34,7 @@ impl Level for Baseline {
 }
 
 /// x86-64-v3: 8 lanes in one AVX register. (16 lanes stay `wide`'s, as
-/// compiled: the slice entry points trace those 8 at a time here.)
+/// compiled: a batch traces those 8 at a time here.)
 #[cfg(target_arch = "x86_64")]
 pub(crate) struct Avx2;
 

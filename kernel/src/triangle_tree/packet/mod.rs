@@ -255,16 +255,6 @@ impl<'a> TriangleTree<'a> {
     }
 }
 
-/// Whether the slice entry points trace `PacketWidth::Sixteen` in 16
-/// lanes: where 16 lanes are one register (AVX-512, built for or
-/// detected). Elsewhere they are two `f32x8` or four `f32x4` per
-/// operation, and 8-lane packets are as fast or faster (an AVX2 build: 16
-/// lanes 2% slower), so those slices go 8 at a time.
-#[inline]
-pub(super) fn sixteen_lanes() -> bool {
-    cfg!(target_feature = "avx512f") || crate::cpu::isa() == crate::cpu::Isa::Avx512
-}
-
 /// The packet entry points' jobs: one packet in the level's lane type of
 /// its width.
 macro_rules! packet_jobs {

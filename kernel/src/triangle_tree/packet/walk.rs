@@ -54,8 +54,8 @@ struct Pending<V> {
     hi: V,
 }
 
-/// The packet walk's stack, [`MAX_DEPTH`] entries. The slice entry points
-/// make one for all their packets: filling its 6 KiB (8 lanes) anew for
+/// The packet walk's stack, [`MAX_DEPTH`] entries. A batch call
+/// makes one for all its packets: filling its 6 KiB (8 lanes) anew for
 /// every packet was ~7% of an 8-wide camera trace. Entries above the
 /// stack pointer are never read, so a stack needs no clearing between
 /// walks.

@@ -1,29 +1,19 @@
 //! The `kdray` binary end to end: happy paths, and every bad input gets a
 //! clear error naming the file, never a panic or a half-written output.
 
+mod common;
+
+use common::{kdray, stderr};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn kdray(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_kdray"))
-        .args(args)
-        .output()
-        .expect("run kdray")
-}
-
 fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("kdray-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+    common::tmp_in("cli", name)
 }
 
 fn write(path: &Path, bytes: &[u8]) -> String {
     std::fs::write(path, bytes).unwrap();
     path.display().to_string()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 fn stdout(o: &Output) -> String {

@@ -3,25 +3,18 @@
 //! placement a flat build refuses, and a scene near the range is rendered,
 //! not left as background.
 
+mod common;
+
+use common::{kdray, stderr};
 use kdray_kernel::{PacketWidth, Triangle, MAX_COORD};
 use kdray_tools::blob::write_triangle_tree;
 use kdray_tools::builders::{build, BuildParams, BuilderKind};
 use kdray_tools::camera::Camera;
 use kdray_tools::render::{render, RenderParams, TreeTracer, BACKGROUND};
 use std::path::PathBuf;
-use std::process::{Command, Output};
-
-fn kdray(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_kdray"))
-        .args(args)
-        .output()
-        .expect("run kdray")
-}
 
 fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("kdray-ranges-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+    common::tmp_in("ranges", name)
 }
 
 fn pts(name: &str, points: &[[f32; 3]]) -> String {
@@ -33,10 +26,6 @@ fn pts(name: &str, points: &[[f32; 3]]) -> String {
         .collect();
     std::fs::write(&path, bytes).unwrap();
     path.display().to_string()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 #[test]

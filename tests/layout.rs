@@ -1,6 +1,6 @@
 //! Blob version 2's node order: every builder's tree is in the one
 //! line order the validator replays (cache-line groups, see
-//! `kdray_kernel::format::walk_line_groups`), and that order is the only one it
+//! `kdray_kernel::format::place_line_groups`), and that order is the only one it
 //! accepts: two pairs swapped (their parents' child indices fixed, so the
 //! result is still a tree) are refused.
 

@@ -44,6 +44,8 @@ typedef enum {
   // A point query's dimension or scalar type is not its tree's
   // (`kdray_points_shape` says what the tree holds).
   KDRAY_STATUS_WRONG_SHAPE = 7,
+  // An argument is outside its documented range (`KdrayBatch::width`).
+  KDRAY_STATUS_BAD_ARGUMENT = 8,
 } KdrayStatus;
 
 // An opened triangle tree. Declare one (on the stack, in a struct, as a
@@ -275,6 +277,26 @@ typedef struct {
 
 // The hits of a packet of 16 rays.
 typedef KdrayHitN_16 KdrayHit16;
+
+// How a batch is traced (`kdray_closest_hits`, `kdray_any_hits`): the
+// Rust API's `Batch`. Pass NULL for the defaults, which suit most
+// batches; whatever it says, each ray gets its single ray's answer bit
+// for bit.
+typedef struct {
+  // The packet width for blocks of coherent rays: 1, 4, 8 or 16, or 0
+  // for the default (8). Order such rays in small image tiles (4x2
+  // pixels for 8 lanes). Blocks of scattered rays walk as single rays
+  // whatever the width. Another value is `KDRAY_STATUS_BAD_ARGUMENT`.
+  uint32_t width;
+  // Null, or caller memory (8-byte aligned, not overlapping the other
+  // arrays) for an any-hit batch to be traced in the Morton order of
+  // its rays' origins: `2 * count` words. Give it for a large batch of
+  // scattered shadow rays (from random surface points); with fewer
+  // words, or for closest hits, the batch is traced in its own order.
+  uint64_t *scratch;
+  // The number of 64-bit words at `scratch` (0 when it is null).
+  size_t scratch_count;
+} KdrayBatch;
 
 // One 64-byte treelet of a triangle tree (`kdray_triangles_treelets`):
 // contents private to the library. Arrays of them must be 64-byte aligned
@@ -693,25 +715,31 @@ KdrayStatus kdray_any_hit16(const int32_t *valid,
                             const KdrayRay16 *rays,
                             int32_t *occluded);
 
-// The closest hits of a stream of `count` rays: `hits[i]` is bit for bit
-// `kdray_closest_hit` of `rays[i]`. The library groups consecutive rays
-// into packets where their direction signs agree, so coherent streams
-// (camera tiles in order) trace fastest.
+// The closest hits of a batch of `count` rays: `hits[i]` is bit for bit
+// `kdray_closest_hit` of `rays[i]`. The library picks the walk per block
+// of rays (packets for coherent blocks, rays in turns for scattered
+// ones), so coherent batches (camera tiles in order) trace fastest.
 //
 // # Preconditions
 // - `tree`: as `kdray_closest_hit`.
 // - `rays`, `hits`: non-null (even for `count == 0`), 4-byte aligned,
 //   `count` records each, not overlapping.
+// - `batch`: null (the defaults) or a `KdrayBatch` as its fields say.
 //
 // # Safety
 // As the preconditions.
 KdrayStatus kdray_closest_hits(const KdrayTriangleTree *tree,
                                const KdrayRay *rays,
                                KdrayHit *hits,
-                               size_t count);
+                               size_t count,
+                               const KdrayBatch *batch);
 
-// Occlusion of a stream of `count` rays: `occluded[i]` is 1 if `rays[i]`
-// hits anything, else 0, as `kdray_any_hit` on each ray.
+// Occlusion of a batch of `count` rays: `occluded[i]` is 1 if `rays[i]`
+// hits anything, else 0, as `kdray_any_hit` on each ray. With
+// `batch->scratch` of `2 * count` words the rays are traced in the
+// Morton order of their origins (each answer still in its ray's slot):
+// much faster for a large batch of scattered shadow rays, no gain for
+// rays in pixel order (docs/results.md).
 //
 // # Preconditions
 // As `kdray_closest_hits`, with `occluded` holding `count` entries.
@@ -721,28 +749,8 @@ KdrayStatus kdray_closest_hits(const KdrayTriangleTree *tree,
 KdrayStatus kdray_any_hits(const KdrayTriangleTree *tree,
                            const KdrayRay *rays,
                            int32_t *occluded,
-                           size_t count);
-
-// `kdray_any_hits` over a large batch of scattered shadow rays (origins
-// far apart from one ray to the next, as from random surface points),
-// traced in the Morton order of their origins: the same answers, each in
-// its ray's slot, 1.7-4.2x faster on a million such rays (the sort
-// included). `scratch` is caller memory for the sort: `scratch_count`
-// 64-bit words, `2 * count` of them; with fewer the batch is traced in
-// its own order. Rays in pixel order gain nothing: use `kdray_any_hits`.
-//
-// # Preconditions
-// As `kdray_any_hits`, with `scratch` (8-byte aligned) holding
-// `scratch_count` words, not overlapping the other arrays.
-//
-// # Safety
-// As the preconditions.
-KdrayStatus kdray_any_hits_by_origin(const KdrayTriangleTree *tree,
-                                     const KdrayRay *rays,
-                                     int32_t *occluded,
-                                     size_t count,
-                                     uint64_t *scratch,
-                                     size_t scratch_count);
+                           size_t count,
+                           const KdrayBatch *batch);
 
 // Gives `*tree` its treelets, written into `treelets`: the tree
 // regrouped three levels to a 64-byte line, which streams of scattered

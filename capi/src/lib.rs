@@ -41,10 +41,10 @@ pub use points::{
 };
 pub use rays::{
     kdray_any_hit, kdray_any_hit16, kdray_any_hit4, kdray_any_hit8, kdray_any_hits,
-    kdray_any_hits_by_origin, kdray_closest_hit, kdray_closest_hit16, kdray_closest_hit4,
-    kdray_closest_hit8, kdray_closest_hits, kdray_first_hits, kdray_triangles_open,
-    kdray_triangles_treelets, KdrayHit, KdrayHit16, KdrayHit4, KdrayHit8, KdrayHitN, KdrayRay,
-    KdrayRay16, KdrayRay4, KdrayRay8, KdrayRayN, KdrayTreelet, KDRAY_MISS, KDRAY_OCCLUDED,
+    kdray_closest_hit, kdray_closest_hit16, kdray_closest_hit4, kdray_closest_hit8,
+    kdray_closest_hits, kdray_first_hits, kdray_triangles_open, kdray_triangles_treelets,
+    KdrayBatch, KdrayHit, KdrayHit16, KdrayHit4, KdrayHit8, KdrayHitN, KdrayRay, KdrayRay16,
+    KdrayRay4, KdrayRay8, KdrayRayN, KdrayTreelet, KDRAY_MISS, KDRAY_OCCLUDED,
 };
 pub use scenes::{
     kdray_scene_any_hit, kdray_scene_closest_hit, kdray_scene_first_hits, kdray_scene_open,
@@ -76,6 +76,8 @@ pub enum KdrayStatus {
     /// A point query's dimension or scalar type is not its tree's
     /// (`kdray_points_shape` says what the tree holds).
     WrongShape = 7,
+    /// An argument is outside its documented range (`KdrayBatch::width`).
+    BadArgument = 8,
 }
 
 /// A static, NUL-terminated sentence naming the `KdrayStatus` value `status`.
@@ -100,6 +102,7 @@ fn status_text(code: i32) -> &'static core::ffi::CStr {
         5 => c"the tree handle was not opened successfully",
         6 => c"the output buffer is too small",
         7 => c"the query's dimension or scalar type is not the point tree's",
+        8 => c"an argument is outside its documented range",
         _ => c"unknown status",
     }
 }

@@ -1,6 +1,6 @@
 //! Triangle trees: open a blob, trace one ray, a packet of 4, 8 or 16
 //! rays in structure-of-arrays form (the shape of Embree's
-//! `rtcIntersect4/8/16`), or a stream of N rays.
+//! `rtcIntersect4/8/16`), or a batch of N rays.
 
 use crate::handle::{self, KdrayTriangleTree};
 use crate::{check_count, check_ptr, status, KdrayStatus};
@@ -446,15 +446,67 @@ pub unsafe extern "C" fn kdray_any_hit16(
     }
 }
 
-/// The closest hits of a stream of `count` rays: `hits[i]` is bit for bit
-/// `kdray_closest_hit` of `rays[i]`. The library groups consecutive rays
-/// into packets where their direction signs agree, so coherent streams
-/// (camera tiles in order) trace fastest.
+/// How a batch is traced (`kdray_closest_hits`, `kdray_any_hits`): the
+/// Rust API's `Batch`. Pass NULL for the defaults, which suit most
+/// batches; whatever it says, each ray gets its single ray's answer bit
+/// for bit.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct KdrayBatch {
+    /// The packet width for blocks of coherent rays: 1, 4, 8 or 16, or 0
+    /// for the default (8). Order such rays in small image tiles (4x2
+    /// pixels for 8 lanes). Blocks of scattered rays walk as single rays
+    /// whatever the width. Another value is `KDRAY_STATUS_BAD_ARGUMENT`.
+    pub width: u32,
+    /// Null, or caller memory (8-byte aligned, not overlapping the other
+    /// arrays) for an any-hit batch to be traced in the Morton order of
+    /// its rays' origins: `2 * count` words. Give it for a large batch of
+    /// scattered shadow rays (from random surface points); with fewer
+    /// words, or for closest hits, the batch is traced in its own order.
+    pub scratch: *mut u64,
+    /// The number of 64-bit words at `scratch` (0 when it is null).
+    pub scratch_count: usize,
+}
+
+/// The Rust `Batch` a caller's `KdrayBatch` (or NULL) asks for.
+///
+/// # Safety
+/// `batch`: null, or a whole `KdrayBatch` whose `scratch` holds
+/// `scratch_count` writable words not overlapping the call's other arrays,
+/// alive for `'a`.
+unsafe fn read_batch<'a>(batch: *const KdrayBatch) -> Result<Batch<'a>, KdrayStatus> {
+    if batch.is_null() {
+        return Ok(Batch::default());
+    }
+    check_ptr(batch)?;
+    // SAFETY: checked non-null and aligned; a whole record by contract.
+    let b = unsafe { batch.read() };
+    let width = match b.width {
+        0 => PacketWidth::default(),
+        n => PacketWidth::from_lanes(n as usize).ok_or(KdrayStatus::BadArgument)?,
+    };
+    let scratch: &mut [u64] = if b.scratch.is_null() || b.scratch_count == 0 {
+        &mut []
+    } else {
+        check_ptr(b.scratch.cast_const())?;
+        check_count::<u64>(b.scratch_count)?;
+        // SAFETY: non-null, aligned, `scratch_count` writable words not
+        // overlapping the other arrays by contract; the size fits a slice.
+        unsafe { core::slice::from_raw_parts_mut(b.scratch, b.scratch_count) }
+    };
+    Ok(Batch { width, scratch })
+}
+
+/// The closest hits of a batch of `count` rays: `hits[i]` is bit for bit
+/// `kdray_closest_hit` of `rays[i]`. The library picks the walk per block
+/// of rays (packets for coherent blocks, rays in turns for scattered
+/// ones), so coherent batches (camera tiles in order) trace fastest.
 ///
 /// # Preconditions
 /// - `tree`: as `kdray_closest_hit`.
 /// - `rays`, `hits`: non-null (even for `count == 0`), 4-byte aligned,
 ///   `count` records each, not overlapping.
+/// - `batch`: null (the defaults) or a `KdrayBatch` as its fields say.
 ///
 /// # Safety
 /// As the preconditions.
@@ -464,6 +516,7 @@ pub unsafe extern "C" fn kdray_closest_hits(
     rays: *const KdrayRay,
     hits: *mut KdrayHit,
     count: usize,
+    batch: *const KdrayBatch,
 ) -> KdrayStatus {
     status((|| {
         // SAFETY: `tree`'s contract.
@@ -471,18 +524,24 @@ pub unsafe extern "C" fn kdray_closest_hits(
         check_ptr(rays)?;
         check_ptr(hits.cast_const())?;
         check_count::<KdrayRay>(count)?;
+        // SAFETY: `batch`'s contract.
+        let batch = unsafe { read_batch(batch) }?;
         // SAFETY: non-null, aligned, `count` records by contract, the size
         // fits a slice; KdrayRay is Ray's layout (asserted above) and Pod.
         let rays = unsafe { core::slice::from_raw_parts(rays.cast::<Ray>(), count) };
         // SAFETY: as for `rays`, writable and not overlapping by contract.
         let hits = unsafe { core::slice::from_raw_parts_mut(hits.cast::<Hit>(), count) };
-        t.closest_hits(rays, hits, Batch::default());
+        t.closest_hits(rays, hits, batch);
         Ok(())
     })())
 }
 
-/// Occlusion of a stream of `count` rays: `occluded[i]` is 1 if `rays[i]`
-/// hits anything, else 0, as `kdray_any_hit` on each ray.
+/// Occlusion of a batch of `count` rays: `occluded[i]` is 1 if `rays[i]`
+/// hits anything, else 0, as `kdray_any_hit` on each ray. With
+/// `batch->scratch` of `2 * count` words the rays are traced in the
+/// Morton order of their origins (each answer still in its ray's slot):
+/// much faster for a large batch of scattered shadow rays, no gain for
+/// rays in pixel order (docs/results.md).
 ///
 /// # Preconditions
 /// As `kdray_closest_hits`, with `occluded` holding `count` entries.
@@ -495,72 +554,23 @@ pub unsafe extern "C" fn kdray_any_hits(
     rays: *const KdrayRay,
     occluded: *mut i32,
     count: usize,
-) -> KdrayStatus {
-    // The kernel answers in `bool`s; a chunk of them at a time keeps the
-    // caller's `int32_t`s out of Rust's `bool` type.
-    const CHUNK: usize = 64;
-    status((|| {
-        // SAFETY: `tree`'s contract.
-        let t = unsafe { handle::load::<TriangleTree>(tree) }?;
-        check_ptr(rays)?;
-        check_ptr(occluded.cast_const())?;
-        check_count::<KdrayRay>(count)?;
-        // SAFETY: as in `kdray_closest_hits`.
-        let rays = unsafe { core::slice::from_raw_parts(rays.cast::<Ray>(), count) };
-        // SAFETY: as for `rays`, writable and not overlapping by contract.
-        let occluded = unsafe { core::slice::from_raw_parts_mut(occluded, count) };
-        let mut flags = [false; CHUNK];
-        for (rs, os) in rays.chunks(CHUNK).zip(occluded.chunks_mut(CHUNK)) {
-            t.any_hits(rs, &mut flags, Batch::default());
-            for (o, &f) in os.iter_mut().zip(&flags) {
-                *o = i32::from(f);
-            }
-        }
-        Ok(())
-    })())
-}
-
-/// `kdray_any_hits` over a large batch of scattered shadow rays (origins
-/// far apart from one ray to the next, as from random surface points),
-/// traced in the Morton order of their origins: the same answers, each in
-/// its ray's slot, 1.7-4.2x faster on a million such rays (the sort
-/// included). `scratch` is caller memory for the sort: `scratch_count`
-/// 64-bit words, `2 * count` of them; with fewer the batch is traced in
-/// its own order. Rays in pixel order gain nothing: use `kdray_any_hits`.
-///
-/// # Preconditions
-/// As `kdray_any_hits`, with `scratch` (8-byte aligned) holding
-/// `scratch_count` words, not overlapping the other arrays.
-///
-/// # Safety
-/// As the preconditions.
-#[no_mangle]
-pub unsafe extern "C" fn kdray_any_hits_by_origin(
-    tree: *const KdrayTriangleTree,
-    rays: *const KdrayRay,
-    occluded: *mut i32,
-    count: usize,
-    scratch: *mut u64,
-    scratch_count: usize,
+    batch: *const KdrayBatch,
 ) -> KdrayStatus {
     status((|| {
         // SAFETY: `tree`'s contract.
         let t = unsafe { handle::load::<TriangleTree>(tree) }?;
         check_ptr(rays)?;
         check_ptr(occluded.cast_const())?;
-        check_ptr(scratch.cast_const())?;
         check_count::<KdrayRay>(count)?;
-        check_count::<u64>(scratch_count)?;
+        // SAFETY: `batch`'s contract.
+        let batch = unsafe { read_batch(batch) }?;
         // SAFETY: as in `kdray_closest_hits`.
         let rays = unsafe { core::slice::from_raw_parts(rays.cast::<Ray>(), count) };
         // SAFETY: as for `rays`, writable and not overlapping by contract.
         let occluded = unsafe { core::slice::from_raw_parts_mut(occluded, count) };
-        // SAFETY: as for `occluded`, `scratch_count` words.
-        let scratch = unsafe { core::slice::from_raw_parts_mut(scratch, scratch_count) };
-        let batch = Batch {
-            width: PacketWidth::Eight,
-            scratch,
-        };
+        // The kernel answers in `bool`s, each in its ray's slot: written
+        // straight into the caller's `int32_t`s, keeping them out of
+        // Rust's `bool` type.
         t.any_hits_each(rays, batch, |i, o| {
             if let Some(x) = occluded.get_mut(i) {
                 *x = i32::from(o);

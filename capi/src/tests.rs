@@ -7,6 +7,7 @@ extern crate std;
 use crate::*;
 use bytemuck::Zeroable;
 use core::ffi::CStr;
+use core::ptr;
 use kdray_kernel::{include_aligned, Hit, Neighbour, PointTree, Ray, TriangleTree};
 use std::string::ToString;
 use std::vec::Vec;
@@ -193,7 +194,7 @@ fn bad_arguments_are_error_codes() {
             KdrayStatus::NotOpen
         );
         let mut hits = [KdrayHit::zeroed(); 2];
-        let s = kdray_closest_hits(&h, &ray, hits.as_mut_ptr(), usize::MAX / 16);
+        let s = kdray_closest_hits(&h, &ray, hits.as_mut_ptr(), usize::MAX / 16, ptr::null());
         assert_eq!(s, KdrayStatus::BadSize);
         let (s, text) = message(|m, n| {
             let mut t = CLOSED;
@@ -236,7 +237,7 @@ fn bad_arguments_are_error_codes() {
 }
 
 #[test]
-fn single_packet_and_stream_answers_are_the_kernels() {
+fn single_packet_and_batch_answers_are_the_kernels() {
     let h = open_cube();
     let tree = TriangleTree::from_bytes(&CUBE.bytes).unwrap();
     let rays = rays();
@@ -245,33 +246,72 @@ fn single_packet_and_stream_answers_are_the_kernels() {
     // SAFETY: live slices of `rays.len()` records.
     unsafe {
         assert_eq!(
-            kdray_closest_hits(&h, rays.as_ptr(), hits.as_mut_ptr(), rays.len()),
+            kdray_closest_hits(
+                &h,
+                rays.as_ptr(),
+                hits.as_mut_ptr(),
+                rays.len(),
+                ptr::null()
+            ),
             KdrayStatus::Ok
         );
         assert_eq!(
-            kdray_any_hits(&h, rays.as_ptr(), occluded.as_mut_ptr(), rays.len()),
+            kdray_any_hits(
+                &h,
+                rays.as_ptr(),
+                occluded.as_mut_ptr(),
+                rays.len(),
+                ptr::null()
+            ),
             KdrayStatus::Ok
         );
     }
-    // In the Morton order of the origins (room for the sort, and none):
-    // the same answers, each in its ray's slot.
-    for room in [2 * rays.len(), 1] {
+    // Every width, and in the Morton order of the origins (room for the
+    // sort, and too little): the same answers, each in its ray's slot.
+    for (width, room) in [
+        (1, 0),
+        (4, 1),
+        (8, 2 * rays.len()),
+        (16, 2 * rays.len()),
+        (0, 0),
+    ] {
         let mut scratch = std::vec![0u64; room];
-        let mut sorted = std::vec![7i32; rays.len()];
-        // SAFETY: live slices of their lengths.
-        let s = unsafe {
-            kdray_any_hits_by_origin(
-                &h,
-                rays.as_ptr(),
-                sorted.as_mut_ptr(),
-                rays.len(),
-                scratch.as_mut_ptr(),
-                room,
-            )
+        let batch = KdrayBatch {
+            width,
+            scratch: if room == 0 {
+                ptr::null_mut()
+            } else {
+                scratch.as_mut_ptr()
+            },
+            scratch_count: room,
         };
-        assert_eq!(s, KdrayStatus::Ok);
-        assert_eq!(sorted, occluded, "scratch {room}");
+        let mut each_hit = std::vec![KdrayHit::zeroed(); rays.len()];
+        let mut each = std::vec![7i32; rays.len()];
+        // SAFETY: live slices of their lengths.
+        unsafe {
+            assert_eq!(
+                kdray_closest_hits(&h, rays.as_ptr(), each_hit.as_mut_ptr(), rays.len(), &batch),
+                KdrayStatus::Ok
+            );
+            assert_eq!(
+                kdray_any_hits(&h, rays.as_ptr(), each.as_mut_ptr(), rays.len(), &batch),
+                KdrayStatus::Ok
+            );
+        }
+        assert_eq!(each_hit, hits, "width {width}, scratch {room}");
+        assert_eq!(each, occluded, "width {width}, scratch {room}");
     }
+    // A width that is none of 0, 1, 4, 8, 16 is refused, output untouched.
+    let bad = KdrayBatch {
+        width: 3,
+        scratch: ptr::null_mut(),
+        scratch_count: 0,
+    };
+    let mut untouched = std::vec![7i32; rays.len()];
+    // SAFETY: live slices of their lengths.
+    let s = unsafe { kdray_any_hits(&h, rays.as_ptr(), untouched.as_mut_ptr(), rays.len(), &bad) };
+    assert_eq!(s, KdrayStatus::BadArgument);
+    assert!(untouched.iter().all(|&o| o == 7));
     let mut some = 0;
     for (i, r) in rays.iter().enumerate() {
         let ray = Ray::from(*r);
@@ -702,7 +742,7 @@ fn a_scene_answers_as_the_kernel_and_a_tree_handle_is_not_a_scene() {
 }
 
 #[test]
-fn treelets_give_a_stream_the_same_answers() {
+fn treelets_give_a_batch_the_same_answers() {
     // A tree of several levels (the cube is one leaf): a soup of small
     // triangles, its blob kept for the handle's life.
     let mut state = 0x9E37_79B9_u32;
@@ -745,7 +785,15 @@ fn treelets_give_a_stream_the_same_answers() {
     let rays = rays();
     let mut want = std::vec![KdrayHit::zeroed(); rays.len()];
     // SAFETY: `rays.len()` records each.
-    let s = unsafe { kdray_closest_hits(&tree, rays.as_ptr(), want.as_mut_ptr(), rays.len()) };
+    let s = unsafe {
+        kdray_closest_hits(
+            &tree,
+            rays.as_ptr(),
+            want.as_mut_ptr(),
+            rays.len(),
+            ptr::null(),
+        )
+    };
     assert_eq!(s, KdrayStatus::Ok);
     let mut needed = 0;
     // SAFETY: asking the count (null lines, capacity 0).
@@ -766,7 +814,15 @@ fn treelets_give_a_stream_the_same_answers() {
     }
     let mut got = std::vec![KdrayHit::zeroed(); rays.len()];
     // SAFETY: as above.
-    let s = unsafe { kdray_closest_hits(&tree, rays.as_ptr(), got.as_mut_ptr(), rays.len()) };
+    let s = unsafe {
+        kdray_closest_hits(
+            &tree,
+            rays.as_ptr(),
+            got.as_mut_ptr(),
+            rays.len(),
+            ptr::null(),
+        )
+    };
     assert_eq!(s, KdrayStatus::Ok);
     assert_eq!(got, want);
 }

@@ -111,7 +111,7 @@ static void check_arguments(const uint8_t *blob, size_t len) {
   KdrayTriangleTree zeroed;
   memset(&zeroed, 0, sizeof zeroed);
   CHECK(kdray_closest_hit(&zeroed, &ray, &hit) == KDRAY_STATUS_NOT_OPEN, "zeroed handle");
-  CHECK(kdray_closest_hits(&tree, &ray, &hit, SIZE_MAX / 8) == KDRAY_STATUS_BAD_SIZE, "huge count");
+  CHECK(kdray_closest_hits(&tree, &ray, &hit, SIZE_MAX / 8, NULL) == KDRAY_STATUS_BAD_SIZE, "huge count");
 
   /* The ray above enters the cube's z = 0 face: t = 1. */
   CHECK(kdray_closest_hit(&tree, &ray, &hit) == KDRAY_STATUS_OK && hit.t == 1.0f, "t %g", hit.t);
@@ -201,7 +201,7 @@ static void check_rays(const uint8_t *blob, size_t len, const char *out) {
       CHECK(first[k].t >= first[k - 1].t, "ray %d: first hits sorted by t", i);
   }
 
-  CHECK(kdray_closest_hits(&tree, rays, stream, RAYS) == KDRAY_STATUS_OK, "stream");
+  CHECK(kdray_closest_hits(&tree, rays, stream, RAYS, NULL) == KDRAY_STATUS_OK, "stream");
   CHECK(memcmp(stream, closest, sizeof stream) == 0, "stream hits equal single-ray hits");
   {
     /* The tree's treelets in a copy of the handle: the count first, then
@@ -219,18 +219,21 @@ static void check_rays(const uint8_t *blob, size_t len, const char *out) {
             "treelets: a misaligned buffer is refused");
       CHECK(kdray_triangles_treelets(&lined, lines, needed, &needed) == KDRAY_STATUS_OK, "treelets");
       memset(stream, 0, sizeof stream);
-      CHECK(kdray_closest_hits(&lined, rays, stream, RAYS) == KDRAY_STATUS_OK, "stream with treelets");
+      CHECK(kdray_closest_hits(&lined, rays, stream, RAYS, NULL) == KDRAY_STATUS_OK, "stream with treelets");
       CHECK(memcmp(stream, closest, sizeof stream) == 0, "stream hits through treelets equal single-ray hits");
       free(lines);
     }
   }
-  CHECK(kdray_any_hits(&tree, rays, stream_occluded, RAYS) == KDRAY_STATUS_OK, "stream");
+  CHECK(kdray_any_hits(&tree, rays, stream_occluded, RAYS, NULL) == KDRAY_STATUS_OK, "stream");
   CHECK(memcmp(stream_occluded, occluded, sizeof occluded) == 0, "stream occlusion equals single rays'");
   static uint64_t scratch[2 * RAYS];
   memset(stream_occluded, 0x55, sizeof stream_occluded);
-  CHECK(kdray_any_hits_by_origin(&tree, rays, stream_occluded, RAYS, scratch, 2 * RAYS) == KDRAY_STATUS_OK,
-        "by origin");
+  const KdrayBatch by_origin = {.width = 16, .scratch = scratch, .scratch_count = 2 * RAYS};
+  CHECK(kdray_any_hits(&tree, rays, stream_occluded, RAYS, &by_origin) == KDRAY_STATUS_OK, "by origin");
   CHECK(memcmp(stream_occluded, occluded, sizeof occluded) == 0, "occlusion by origin equals single rays'");
+  const KdrayBatch odd_width = {.width = 3};
+  CHECK(kdray_any_hits(&tree, rays, stream_occluded, RAYS, &odd_width) == KDRAY_STATUS_BAD_ARGUMENT,
+        "a packet width of 3 is refused");
   CHECK_PACKETS(4);
   CHECK_PACKETS(8);
   CHECK_PACKETS(16);

@@ -128,7 +128,7 @@ pub use blob::{BlobError, Node, NodeKind, WriteError, MAX_DEPTH};
 /// format, which changes with its version.
 #[doc(hidden)]
 pub mod format {
-    pub use crate::blob::{node, walk_line_groups, wire, FIRST_PAIR, LINE_NODES};
+    pub use crate::blob::{node, place_line_groups, wire, FIRST_PAIR, LINE_NODES};
 }
 pub use blob::wire::Aligned;
 pub use cpu::{isa, set_isa, Isa, IsaUnsupported};

@@ -9,8 +9,8 @@ pub mod wire;
 
 pub use error::{BlobError, WriteError};
 pub use node::{Node, NodeKind};
-pub(crate) use validate::{validate_nodes, walk_layout};
-pub use validate::{walk_line_groups, FIRST_PAIR, LINE_NODES};
+pub use validate::{place_line_groups, FIRST_PAIR, LINE_NODES};
+pub(crate) use validate::{replay_depth_first, validate_nodes};
 
 /// The deepest a node may be (the root is at depth 0). The traversal stack
 /// holds one entry per level, so this is also its capacity; builders cap

@@ -5,7 +5,7 @@
 //! from node 2, so every pair fills one 16-byte quarter of a 64-byte line
 //! (a blob in 64-byte aligned memory; its 64-byte header is one line, so
 //! node `i` lies in line `i / 8`). Pairs are placed in the order of
-//! [`walk_line_groups`]: a group starts at a node, takes the next free pair
+//! [`place_line_groups`]: a group starts at a node, takes the next free pair
 //! for it and, breadth-first below it, for its descendants until the line
 //! of its first pair is full; the nodes that did not fit start later
 //! groups, depth-first (last left, first taken). A walk from the root
@@ -18,7 +18,7 @@
 //! at the node count), and bounds the depth, on a fixed stack, without
 //! allocating.
 //!
-//! **Point trees: depth first** ([`walk_layout`]): the `k`-th interior node
+//! **Point trees: depth first** ([`replay_depth_first`]): the `k`-th interior node
 //! met depth-first, below child first, has its children at `2k + 1` and
 //! `2k + 2`.
 
@@ -26,7 +26,7 @@ use super::error::BlobError;
 use super::node::{Node, NodeKind};
 use super::MAX_DEPTH;
 
-/// Walks a triangle tree's line groups on a fixed stack ([`walk_line_groups`]),
+/// Replays a triangle tree's line groups on a fixed stack ([`place_line_groups`]),
 /// checking the padding node, the layout rule of the module docs, every
 /// split and every leaf. Returns the max depth.
 pub(crate) fn validate_nodes(
@@ -52,7 +52,7 @@ pub(crate) fn validate_nodes(
     }
     let mut node = |i: u32| {
         let Some(&node) = nodes.get(i as usize) else {
-            // Unreachable: walk_layout range-checks pairs before it visits them.
+            // Unreachable: replay_depth_first range-checks pairs before it visits them.
             return Err(BlobError::NoNodes);
         };
         match node.kind() {
@@ -78,7 +78,7 @@ pub(crate) fn validate_nodes(
             }
         }
     };
-    walk_line_groups(nodes.len(), &mut node, |i, child, slot| {
+    place_line_groups(nodes.len(), &mut node, |i, child, slot| {
         if child == slot {
             Ok(())
         } else {
@@ -107,9 +107,9 @@ const PENDING: usize = (LINE_NODES / 2 + 1) * (MAX_DEPTH as usize + 2) + 1;
 /// The group placement of the module docs over `total` nodes of any
 /// representation. `node(i)` runs node `i`'s own checks and returns its
 /// below child (`None` for a leaf), in whatever numbering the caller
-/// walks; `place(i, child, slot)` is told that the rule puts the pair of
+/// uses; `place(i, child, slot)` is told that the rule puts the pair of
 /// node `i` (at `child` in that numbering) at node `slot`; the validator
-/// checks `child == slot`, a builder records it. The walk range-checks
+/// checks `child == slot`, a builder records it. The replay range-checks
 /// `child` before visiting it, so `node` is only called with indices below
 /// `total`; on a valid layout each once: O(n). Returns the max depth.
 ///
@@ -118,7 +118,7 @@ const PENDING: usize = (LINE_NODES / 2 + 1) * (MAX_DEPTH as usize + 2) + 1;
 /// pair out of range, [`BlobError::TooDeep`], [`BlobError::UnreachableNodes`]
 /// when the placed pairs do not end at `total`, and whatever `node` or
 /// `place` return.
-pub fn walk_line_groups(
+pub fn place_line_groups(
     total: usize,
     mut node: impl FnMut(u32) -> Result<Option<u32>, BlobError>,
     mut place: impl FnMut(u32, u32, u32) -> Result<(), BlobError>,
@@ -133,7 +133,7 @@ pub fn walk_line_groups(
     };
     // The group roots left for later: nodes and depths side by side,
     // the depths in bytes (at most `MAX_DEPTH + 1`), which halves the
-    // walk's stack (2,984 bytes with `(u32, u32)` pairs on thumbv7em).
+    // replay's stack (2,984 bytes with `(u32, u32)` pairs on thumbv7em).
     let mut pending_node = [0u32; PENDING];
     let mut pending_depth = [0u8; PENDING];
     let mut len = 1;
@@ -198,14 +198,14 @@ pub fn walk_line_groups(
     all_reached(next, total, max_depth)
 }
 
-/// The layout rule's walk over `total` nodes, for any node type: depth
+/// The layout rule's replay over `total` nodes, for any node type: depth
 /// first on a fixed stack, below child first. `node(i)` runs node `i`'s
-/// own checks and returns its below child (`None` for a leaf); the walk
+/// own checks and returns its below child (`None` for a leaf); the replay
 /// checks that child against the rule (the next unused pair, in range)
 /// before visiting it, so `node` is only called with indices below
 /// `total`, each at most once: O(n), and it always terminates. Returns the
 /// max depth.
-pub(crate) fn walk_layout(
+pub(crate) fn replay_depth_first(
     total: usize,
     mut node: impl FnMut(u32) -> Result<Option<u32>, BlobError>,
 ) -> Result<u32, BlobError> {
@@ -264,7 +264,7 @@ pub(crate) fn walk_layout(
     all_reached(next_pair, total, max_depth)
 }
 
-/// The end of a layout walk: the pairs placed must end at the node count
+/// The end of a layout replay: the pairs placed must end at the node count
 /// (else some nodes are unreachable); then `max_depth` is the answer.
 fn all_reached(next: usize, total: usize, max_depth: u32) -> Result<u32, BlobError> {
     if next != total {

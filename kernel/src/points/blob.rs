@@ -23,7 +23,7 @@
 //! [`BlobError::WrongScalar`]).
 
 use super::{max_point_coord, max_point_coord_log2};
-use super::{walk_layout, Sections, WriteError, KIND_POINTS};
+use super::{replay_depth_first, Sections, WriteError, KIND_POINTS};
 use super::{wire, BlobError, Bounds, Header, PointNode, PointNodeKind, PointTreeN, Scalar};
 
 /// A point tree's sections after the header, in blob order: what
@@ -378,7 +378,7 @@ impl<'a, const D: usize, S: Scalar> PointTreeN<'a, D, S> {
             Some(_) => {}
         }
         let mut next_run = 0usize;
-        let max_depth = walk_layout(total, |i| {
+        let max_depth = replay_depth_first(total, |i| {
             let (Some(&node), Some(own), Some(&split)) = (
                 self.nodes.get(i as usize),
                 self.bounds.get(i as usize),

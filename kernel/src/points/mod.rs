@@ -46,7 +46,7 @@ pub use within::{within_brute, BufferTooSmall};
 // Everything the point tree takes from the rest of the kernel: the blob's
 // header and section reader, its errors, and the depth limit.
 use crate::blob::wire::{self, Header, Sections, KIND_POINTS};
-use crate::blob::{walk_layout, BlobError, WriteError, MAX_DEPTH};
+use crate::blob::{replay_depth_first, BlobError, WriteError, MAX_DEPTH};
 use crate::geometry::Bounds;
 
 /// One neighbour: the point's index and its squared distance to the query.

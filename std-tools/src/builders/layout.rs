@@ -2,10 +2,10 @@
 //! child before above, the `k`-th interior node met with its children at
 //! `2k + 1` and `2k + 2` (both halves laid out at once, in parallel), then
 //! reordered into the cache-line groups of blob version 2
-//! ([`kdray_kernel::format::walk_line_groups`], the rule `TriangleTree::from_parts`
+//! ([`kdray_kernel::format::place_line_groups`], the rule `TriangleTree::from_parts`
 //! checks).
 
-use kdray_kernel::format::walk_line_groups;
+use kdray_kernel::format::place_line_groups;
 use kdray_kernel::{Axis, Bounds, Node, NodeKind};
 
 use super::BuiltTree;
@@ -122,7 +122,7 @@ pub fn flatten(root: BuildNode, bounds: Bounds) -> BuiltTree {
 }
 
 /// The depth-first `nodes` in the kernel's line order: the root, the
-/// padding node, then every pair where [`walk_line_groups`] places it, each
+/// padding node, then every pair where [`place_line_groups`] places it, each
 /// interior node's child index renumbered (the scene's top level uses it
 /// too).
 #[must_use]
@@ -133,7 +133,7 @@ pub fn into_line_groups(nodes: &[Node]) -> Vec<Node> {
         Some(NodeKind::Interior { child, .. }) => Ok(Some(child)),
         _ => Ok(None),
     };
-    let placed = walk_line_groups(nodes.len() + 1, below, |_, child, slot| {
+    let placed = place_line_groups(nodes.len() + 1, below, |_, child, slot| {
         to[child as usize] = slot;
         to[child as usize + 1] = slot + 1;
         Ok(())

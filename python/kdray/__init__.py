@@ -1,8 +1,10 @@
 """kdray: exact k-d tree ray casting and nearest-neighbour search over numpy arrays.
 
 - :class:`TriangleTree`: a triangle mesh's k-d tree; ``cast_rays``,
-  ``test_occlusions``, ``count_intersections`` and ``list_intersections``
-  with Open3D's ``RaycastingScene`` names and miss conventions.
+  ``test_occlusions``, ``count_intersections`` and ``list_intersections``,
+  ``compute_closest_points``, ``compute_distance``,
+  ``compute_signed_distance`` and ``compute_occupancy`` with Open3D's
+  ``RaycastingScene`` names and conventions.
 - :class:`Scene`: a scene blob of instanced meshes (``kdray build
   --instances``) with the same calls and ``geometry_ids``.
 - :class:`KDTree`: a point k-d tree with ``scipy.spatial.KDTree``'s
@@ -96,6 +98,14 @@ def _nthreads(nthreads: int) -> int:
     return n
 
 
+def _nsamples(nsamples: int) -> int:
+    """Open3D's ``nsamples``: an odd number of rays from 1 to 7."""
+    ok = isinstance(nsamples, (int, np.integer)) and not isinstance(nsamples, (bool, np.bool_))
+    if not (ok and 1 <= nsamples <= 7 and nsamples % 2 == 1):
+        raise ValueError(f"nsamples must be an odd number from 1 to 7, not {nsamples!r}")
+    return int(nsamples)
+
+
 def _rays(
     rays: Any,
     origins: Any,
@@ -135,6 +145,15 @@ def _rays(
                 f"{name}: shape {a.shape} does not broadcast to the rays' {lead}"
             ) from None
     return out.reshape(-1, 8), lead
+
+
+def _points(query_points: Any) -> tuple[np.ndarray, tuple[int, ...]]:
+    """The query points as a C-contiguous ``(N, 3)`` float32 array and their leading shape."""
+    q = _array(query_points, "query_points")
+    if q.ndim < 1 or q.shape[-1] != 3:
+        raise ValueError(f"query_points: expected shape (..., 3), got {q.shape}")
+    with np.errstate(over="ignore"):  # beyond float32: inf, a NaN distance
+        return np.ascontiguousarray(q.reshape(-1, 3), dtype=_F32), q.shape[:-1]
 
 
 def _ray_splits(splits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -255,7 +274,7 @@ class _RayQueries:
 
 
 class TriangleTree(_RayQueries):
-    """A triangle mesh's k-d tree, for exact ray casting.
+    """A triangle mesh's k-d tree, for exact ray casting and distance queries.
 
     Build from ``vertices`` ``(V, 3)`` (any float or integer dtype; stored
     as float32) and ``triangles`` ``(F, 3)`` (integer indices into
@@ -375,6 +394,67 @@ class TriangleTree(_RayQueries):
 
     def _occluded(self, rays: np.ndarray, nthreads: int, packet: int) -> np.ndarray:
         return self._tree.occluded(rays, nthreads, packet)  # type: ignore[no-any-return]
+
+    def compute_closest_points(
+        self, query_points: npt.ArrayLike, nthreads: int = 0
+    ) -> dict[str, np.ndarray]:
+        """The closest point on the mesh to each query, with Open3D's names.
+
+        ``query_points`` is ``(..., 3)`` (any float dtype; answered in
+        float32). Returns ``points`` (float32 ``(..., 3)``),
+        ``primitive_ids`` (uint32, the triangle; at equal distance the
+        lower index), ``primitive_uvs`` (``(..., 2)``, the barycentric
+        weights of vertices 1 and 2 at the point) and ``primitive_normals``
+        (``(..., 3)``, the triangle's unit normal as :meth:`cast_rays`
+        gives it). A query with a NaN or infinite coordinate has no
+        closest point: NaN ``points`` and ``primitive_uvs``, :data:`MISS`,
+        a zero normal. Exact: the answer of testing every triangle, bit
+        for bit. ``nthreads``: 0 for all cores.
+        """
+        q, lead = _points(query_points)
+        out = self._tree.closest_points(q, _nthreads(nthreads))
+        names = ("points", "primitive_ids", "primitive_uvs", "primitive_normals")
+        tails = ((3,), (), (2,), (3,))
+        return {n: a.reshape(lead + t) for n, a, t in zip(names, out, tails)}
+
+    def compute_distance(self, query_points: npt.ArrayLike, nthreads: int = 0) -> np.ndarray:
+        """The distance from each query ``(..., 3)`` to the mesh: float32, of the leading shape.
+
+        The square root of the exact closest point's squared distance
+        (computed in float64), rounded once; NaN for a query with a NaN or
+        infinite coordinate.
+        """
+        q, lead = _points(query_points)
+        return self._tree.distances(q, _nthreads(nthreads)).reshape(lead)  # type: ignore[no-any-return]
+
+    def compute_signed_distance(
+        self, query_points: npt.ArrayLike, nthreads: int = 0, nsamples: int = 1
+    ) -> np.ndarray:
+        """:meth:`compute_distance`, negative inside the mesh: float32, of the leading shape.
+
+        Inside is decided as :meth:`compute_occupancy` decides it. A point
+        on the surface (distance 0) may get either sign.
+        """
+        q, lead = _points(query_points)
+        rule = _nsamples(nsamples)
+        return self._tree.signed_distances(q, _nthreads(nthreads), rule).reshape(lead)  # type: ignore[no-any-return]
+
+    def compute_occupancy(
+        self, query_points: npt.ArrayLike, nthreads: int = 0, nsamples: int = 1
+    ) -> np.ndarray:
+        """Whether each query ``(..., 3)`` is inside the mesh: float32 1 or 0 (Open3D's), of the leading shape.
+
+        ``nsamples=1``: the parity of the crossings of one ray from the
+        point (closed meshes; a ray through an edge or a vertex is counted
+        once). ``nsamples`` 3, 5 or 7: the majority of that many rays in
+        fixed directions, each by parity (for open or self-intersecting
+        meshes). A point outside the tree's bounds, or with a NaN or
+        infinite coordinate, is outside.
+        """
+        q, lead = _points(query_points)
+        rule = _nsamples(nsamples)
+        inside = self._tree.occupancy(q, _nthreads(nthreads), rule)
+        return inside.astype(_F32).reshape(lead)  # type: ignore[no-any-return]
 
     def __reduce_ex__(self, protocol: Any) -> tuple[Any, tuple[Any, ...]]:
         return _reduce(self, int(protocol), _triangle_tree)

@@ -1,12 +1,13 @@
 //! `Scene`: a scene blob of instanced meshes (`kdray build --instances`)
 //! and its ray queries, each hit naming its instance (`geometry_ids`).
 
+use crate::arrays::table;
 use crate::held::{Bytes, HeldScene};
 use crate::pools;
 use crate::rays::{hit_lists, map_all, ray_slice, unit_normal};
 use kdray_kernel::{Instance, Scene as KernelScene, SceneHit, Triangle, MISS};
 use kdray_tools::instances::transform_point;
-use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2};
+use numpy::{PyArray1, PyReadonlyArray2};
 use pyo3::exceptions::PyOSError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
@@ -63,7 +64,6 @@ fn cast_arrays<'py>(
     hits: &[SceneHit],
     nthreads: usize,
 ) -> PyResult<SceneCast<'py>> {
-    let n = hits.len();
     let geometry: Vec<u32> = hits
         .iter()
         .map(|h| if h.is_hit() { h.instance } else { MISS })
@@ -77,15 +77,13 @@ fn cast_arrays<'py>(
             }
         })
     })?;
-    let uvs: Vec<f32> = hits.iter().flat_map(|h| [h.u, h.v]).collect();
+    let uvs: Vec<[f32; 2]> = hits.iter().map(|h| [h.u, h.v]).collect();
     Ok((
         PyArray1::from_vec(py, hits.iter().map(|h| h.t).collect()),
         PyArray1::from_vec(py, geometry),
         PyArray1::from_vec(py, hits.iter().map(|h| h.prim).collect()),
-        PyArray1::from_vec(py, uvs).reshape([n, 2])?.into_any(),
-        PyArray1::from_vec(py, normals.into_flattened())
-            .reshape([n, 3])?
-            .into_any(),
+        table(py, uvs)?,
+        table(py, normals)?,
     ))
 }
 
@@ -95,15 +93,13 @@ fn hit_arrays<'py>(
     splits: Vec<u64>,
     hits: &[SceneHit],
 ) -> PyResult<SceneHits<'py>> {
-    let uvs: Vec<f32> = hits.iter().flat_map(|h| [h.u, h.v]).collect();
+    let uvs: Vec<[f32; 2]> = hits.iter().map(|h| [h.u, h.v]).collect();
     Ok((
         PyArray1::from_vec(py, splits),
         PyArray1::from_vec(py, hits.iter().map(|h| h.t).collect()),
         PyArray1::from_vec(py, hits.iter().map(|h| h.instance).collect()),
         PyArray1::from_vec(py, hits.iter().map(|h| h.prim).collect()),
-        PyArray1::from_vec(py, uvs)
-            .reshape([hits.len(), 2])?
-            .into_any(),
+        table(py, uvs)?,
     ))
 }
 

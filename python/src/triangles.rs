@@ -1,10 +1,16 @@
 //! `TriangleTree`: a triangle k-d tree built from arrays or a mesh file,
-//! or loaded from a blob, and its ray queries on the tools' batch paths.
+//! or loaded from a blob, its ray queries on the tools' batch paths and
+//! its distance queries ([`crate::distance`]).
 
+use crate::arrays::table;
+use crate::distance::{self, answers, inside_rule, point_slice, ClosestArrays};
 use crate::held::{Bytes, HeldTree};
 use crate::pools;
 use crate::rays::{cast_arrays, hit_lists, ray_slice, unit_normal, CastArrays, SERIAL_MAX};
-use kdray_kernel::{any_hit_brute, closest_hit_brute, first_hits_brute, Hit, Ray, Triangle};
+use kdray_kernel::{
+    any_hit_brute, closest_hit_brute, closest_point_brute, first_hits_brute, ClosestPoint, Hit,
+    Ray, Triangle, MISS,
+};
 use kdray_tools::blob::write_triangle_tree;
 use kdray_tools::builders::{build, BuildParams, BuilderKind};
 use kdray_tools::trace::{trace_into, trace_serial, Order, PacketWidth, Query};
@@ -270,6 +276,109 @@ impl TriangleTree {
         hit_arrays(py, lists.splits, &lists.hits)
     }
 
+    /// The closest point of each query: `(points, primitive_ids,
+    /// primitive_uvs, primitive_normals)`.
+    fn closest_points<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f32>,
+        nthreads: usize,
+    ) -> PyResult<ClosestArrays<'py>> {
+        let queries = point_slice(&points)?;
+        distance::closest_points(py, &self.held.tree().tree(), queries, nthreads)
+    }
+
+    /// The distance of each query to the mesh (NaN for a query with a NaN
+    /// or infinite coordinate).
+    fn distances<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f32>,
+        nthreads: usize,
+    ) -> PyResult<Bound<'py, PyArray1<f32>>> {
+        let queries = point_slice(&points)?;
+        let tree = self.held.tree().tree();
+        answers(py, queries.len(), nthreads, 0.0, |out| {
+            kdray_tools::distance::distances(&tree, queries, out);
+        })
+    }
+
+    /// The signed distance of each query: negative inside by the rule of
+    /// `nsamples` (1: one ray's parity; 3, 5, 7: their majority).
+    fn signed_distances<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f32>,
+        nthreads: usize,
+        nsamples: u32,
+    ) -> PyResult<Bound<'py, PyArray1<f32>>> {
+        let rule = inside_rule(nsamples)?;
+        let queries = point_slice(&points)?;
+        let tree = self.held.tree().tree();
+        answers(py, queries.len(), nthreads, 0.0, |out| {
+            kdray_tools::distance::signed_distances(&tree, queries, rule, out);
+        })
+    }
+
+    /// Whether each query is inside by the rule of `nsamples`.
+    fn occupancy<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f32>,
+        nthreads: usize,
+        nsamples: u32,
+    ) -> PyResult<Bound<'py, PyArray1<bool>>> {
+        let rule = inside_rule(nsamples)?;
+        let queries = point_slice(&points)?;
+        let tree = self.held.tree().tree();
+        answers(py, queries.len(), nthreads, false, |out| {
+            kdray_tools::distance::occupancy(&tree, queries, rule, out);
+        })
+    }
+
+    /// The oracle of `closest_points`: every triangle tested
+    /// ([`closest_point_brute`]), as `(points, primitive_ids,
+    /// primitive_uvs, squared distances)`, for tests.
+    fn closest_points_brute<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f32>,
+    ) -> PyResult<ClosestBrute<'py>> {
+        let queries = point_slice(&points)?;
+        let tris = self.held.tree().tree().triangles();
+        let found: Vec<Option<ClosestPoint>> = py.detach(|| {
+            queries
+                .iter()
+                .map(|q| closest_point_brute(tris, *q, f32::INFINITY))
+                .collect()
+        });
+        let none = [f32::NAN; 3];
+        Ok((
+            table(
+                py,
+                found.iter().map(|c| c.map_or(none, |c| c.point)).collect(),
+            )?,
+            PyArray1::from_vec(
+                py,
+                found.iter().map(|c| c.map_or(MISS, |c| c.prim)).collect(),
+            ),
+            table(
+                py,
+                found
+                    .iter()
+                    .map(|c| c.map_or([f32::NAN; 2], |c| [c.u, c.v]))
+                    .collect(),
+            )?,
+            PyArray1::from_vec(
+                py,
+                found
+                    .iter()
+                    .map(|c| c.map_or(f64::NAN, |c| c.distance2))
+                    .collect(),
+            ),
+        ))
+    }
+
     /// The oracle of `cast`: every triangle tested
     /// ([`closest_hit_brute`]), for tests.
     fn cast_brute<'py>(
@@ -315,6 +424,15 @@ impl TriangleTree {
     }
 }
 
+/// `(points, primitive_ids, primitive_uvs, distance2)` of
+/// `closest_points_brute`.
+type ClosestBrute<'py> = (
+    Bound<'py, PyAny>,
+    Bound<'py, PyArray1<u32>>,
+    Bound<'py, PyAny>,
+    Bound<'py, PyArray1<f64>>,
+);
+
 /// `(ray_splits, t_hit, primitive_ids, primitive_uvs)` of `hits`.
 pub(crate) type HitArrays<'py> = (
     Bound<'py, PyArray1<u64>>,
@@ -327,14 +445,11 @@ pub(crate) type HitArrays<'py> = (
 fn hit_arrays<'py>(py: Python<'py>, splits: Vec<u64>, hits: &[Hit]) -> PyResult<HitArrays<'py>> {
     let t: Vec<f32> = hits.iter().map(|h| h.t).collect();
     let ids: Vec<u32> = hits.iter().map(|h| h.prim).collect();
-    let uvs: Vec<f32> = hits.iter().flat_map(|h| [h.u, h.v]).collect();
-    let uvs = PyArray1::from_vec(py, uvs)
-        .reshape([hits.len(), 2])?
-        .into_any();
+    let uvs: Vec<[f32; 2]> = hits.iter().map(|h| [h.u, h.v]).collect();
     Ok((
         PyArray1::from_vec(py, splits),
         PyArray1::from_vec(py, t),
         PyArray1::from_vec(py, ids),
-        uvs,
+        table(py, uvs)?,
     ))
 }

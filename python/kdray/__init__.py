@@ -22,7 +22,7 @@ from __future__ import annotations
 import os
 import pickle
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 import numpy.typing as npt
@@ -175,7 +175,28 @@ def _reduce(obj: Any, protocol: int, rebuild: Any) -> tuple[Any, tuple[Any, ...]
 # --- triangles -------------------------------------------------------------
 
 
-class _RayQueries:
+class _Blob:
+    """What every tree shares: it is its blob, held by the compiled object ``_tree``."""
+
+    __slots__ = ()
+    _tree: Any
+
+    @classmethod
+    def _wrap(cls, tree: Any) -> Self:
+        self = cls.__new__(cls)
+        self._tree = tree
+        return self
+
+    def to_bytes(self) -> bytes:
+        """The blob (the bytes ``kdray build`` writes), without a copy where it is held as ``bytes``."""
+        return self._tree.to_bytes()  # type: ignore[no-any-return]
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Writes the blob to ``path`` (a temporary file renamed into place), as ``kdray build`` does."""
+        self._tree.save(os.fspath(path))
+
+
+class _RayQueries(_Blob):
     """The ray calls ``TriangleTree`` and ``Scene`` share."""
 
     __slots__ = ()
@@ -264,13 +285,6 @@ class _RayQueries:
         result["primitive_uvs"] = out[-1]
         return result
 
-    def to_bytes(self) -> bytes:
-        """The blob (the bytes ``kdray build`` writes), without a copy where it is held as ``bytes``."""
-        return self._tree.to_bytes()  # type: ignore[no-any-return]
-
-    def save(self, path: str | os.PathLike[str]) -> None:
-        """Writes the blob to ``path`` (a temporary file renamed into place), as ``kdray build`` does."""
-        self._tree.save(os.fspath(path))
 
 
 class TriangleTree(_RayQueries):
@@ -324,12 +338,6 @@ class TriangleTree(_RayQueries):
         tris = np.ascontiguousarray(v32[f])
         opts = _options(builder, max_depth, traversal_cost, intersection_cost, empty_bonus, threads)
         self._tree = _kdray.TriangleTree.build(tris, opts)
-
-    @classmethod
-    def _wrap(cls, tree: Any) -> TriangleTree:
-        self = cls.__new__(cls)
-        self._tree = tree
-        return self
 
     @classmethod
     def from_file(
@@ -478,12 +486,6 @@ class Scene(_RayQueries):
         raise TypeError("open a scene with Scene.load(path) or Scene.from_bytes(buffer)")
 
     @classmethod
-    def _wrap(cls, tree: Any) -> Scene:
-        self = cls.__new__(cls)
-        self._tree = tree
-        return self
-
-    @classmethod
     def from_bytes(cls, buffer: Any, *, copy: bool = False) -> Scene:
         """A scene from its blob, validated (read in place when read-only and 64-byte aligned)."""
         return cls._wrap(_kdray.Scene.from_buffer(buffer, copy))
@@ -523,7 +525,7 @@ class Scene(_RayQueries):
 # --- points ----------------------------------------------------------------
 
 
-class KDTree:
+class KDTree(_Blob):
     """A point k-d tree with ``scipy.spatial.KDTree``'s ``query`` and ``query_ball_point``.
 
     ``data`` is ``(n, m)`` with ``m`` from 1 to :data:`MAX_DIM`; float32
@@ -535,6 +537,7 @@ class KDTree:
     """
 
     __slots__ = ("_tree",)
+    _tree: _kdray.PointTree
 
     def __init__(
         self,
@@ -566,12 +569,6 @@ class KDTree:
         self._tree = _kdray.PointTree.build(a, None if leafsize is None else int(leafsize))
 
     @classmethod
-    def _wrap(cls, tree: Any) -> KDTree:
-        self = cls.__new__(cls)
-        self._tree = tree
-        return self
-
-    @classmethod
     def from_bytes(cls, buffer: Any, *, copy: bool = False) -> KDTree:
         """A tree from its blob (``kdray build-points``' output), validated; read in place when read-only and 8-byte aligned."""
         return cls._wrap(_kdray.PointTree.from_buffer(buffer, copy))
@@ -580,14 +577,6 @@ class KDTree:
     def load(cls, path: str | os.PathLike[str]) -> KDTree:
         """Reads and validates a point blob file."""
         return cls._wrap(_kdray.PointTree.load(os.fspath(path)))
-
-    def to_bytes(self) -> bytes:
-        """The blob."""
-        return self._tree.to_bytes()
-
-    def save(self, path: str | os.PathLike[str]) -> None:
-        """Writes the blob to ``path`` (a temporary file renamed into place)."""
-        self._tree.save(os.fspath(path))
 
     @property
     def n(self) -> int:

@@ -193,22 +193,24 @@ def compute_distance(tree: TriangleTree, query_points: Any, nthreads: int = 0) -
     return _by_row(_points(tree, query_points), tree, "compute_distance", (nthreads,), np.float32)
 
 
+def _inside(method: str, tree: TriangleTree, query_points: Any, nthreads: int, nsamples: int) -> Any:
+    """A call that takes ``nsamples`` (the inside rule), checked before any block runs."""
+    q = _points(tree, query_points)
+    return _by_row(q, tree, method, (nthreads, _nsamples(nsamples)), np.float32)
+
+
 def compute_signed_distance(
     tree: TriangleTree, query_points: Any, nthreads: int = 0, nsamples: int = 1
 ) -> Any:
     """``tree.compute_signed_distance`` over a dask array ``(N, 3)`` chunked by rows: ``(N,)`` float32."""
-    q = _points(tree, query_points)
-    args = (nthreads, _nsamples(nsamples))
-    return _by_row(q, tree, "compute_signed_distance", args, np.float32)
+    return _inside("compute_signed_distance", tree, query_points, nthreads, nsamples)
 
 
 def compute_occupancy(
     tree: TriangleTree, query_points: Any, nthreads: int = 0, nsamples: int = 1
 ) -> Any:
     """``tree.compute_occupancy`` over a dask array ``(N, 3)`` chunked by rows: ``(N,)`` float32 0 or 1."""
-    q = _points(tree, query_points)
-    args = (nthreads, _nsamples(nsamples))
-    return _by_row(q, tree, "compute_occupancy", args, np.float32)
+    return _inside("compute_occupancy", tree, query_points, nthreads, nsamples)
 
 
 def _field(block: np.ndarray, name: str) -> np.ndarray:

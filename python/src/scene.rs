@@ -2,13 +2,12 @@
 //! and its ray queries, each hit naming its instance (`geometry_ids`).
 
 use crate::arrays::table;
-use crate::held::{Bytes, HeldScene};
+use crate::held::{Held, HeldScene};
 use crate::pools;
 use crate::rays::{hit_lists, map_all, ray_slice, unit_normal};
 use kdray_kernel::{Instance, Scene as KernelScene, SceneHit, Triangle, MISS};
 use kdray_tools::instances::transform_point;
 use numpy::{PyArray1, PyReadonlyArray2};
-use pyo3::exceptions::PyOSError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
 
@@ -118,18 +117,14 @@ impl Scene {
     /// C-contiguous, 64-byte aligned and `copy` is false; copied otherwise).
     #[staticmethod]
     fn from_buffer(buffer: &Bound<'_, PyAny>, copy: bool) -> PyResult<Scene> {
-        let bytes = Bytes::from_buffer(buffer, kdray_kernel::MESH_ALIGN, copy)?;
-        let held = buffer.py().detach(|| HeldScene::new(bytes))?;
+        let held = HeldScene::from_buffer(buffer, copy)?;
         Ok(Scene { held })
     }
 
     /// Reads and validates a scene blob file.
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Scene> {
-        let blob = py
-            .detach(|| kdray_tools::blob::Blob::read(&path))
-            .map_err(|e| PyOSError::new_err(format!("{}: {e}", path.display())))?;
-        let held = py.detach(|| HeldScene::new(Bytes::Owned(blob)))?;
+        let held = HeldScene::load(py, &path)?;
         Ok(Scene { held })
     }
 
@@ -140,9 +135,7 @@ impl Scene {
 
     /// Writes the blob to `path` (the tools' atomic writer).
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
-        let bytes = self.held.bytes().as_slice();
-        py.detach(|| kdray_tools::io::write_bytes(&path, bytes))
-            .map_err(|e| PyOSError::new_err(e.to_string()))
+        self.held.bytes().save(py, &path)
     }
 
     /// How many instances.

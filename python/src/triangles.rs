@@ -4,7 +4,7 @@
 
 use crate::arrays::table;
 use crate::distance::{self, answers, inside_rule, point_slice, ClosestArrays};
-use crate::held::{Bytes, HeldTree};
+use crate::held::{Bytes, Held, HeldTree};
 use crate::pools;
 use crate::rays::{cast_arrays, hit_lists, ray_slice, unit_normal, CastArrays, SERIAL_MAX};
 use kdray_kernel::{
@@ -15,13 +15,9 @@ use kdray_tools::blob::write_triangle_tree;
 use kdray_tools::builders::{build, BuildParams, BuilderKind};
 use kdray_tools::trace::{trace_into, trace_serial, Order, PacketWidth, Query};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
-use pyo3::exceptions::{PyOSError, PyValueError};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
-
-/// A blob's alignment for a triangle tree (the kernel checks 4; a
-/// `bytes` object's data is 16-aligned).
-pub(crate) const ALIGN: usize = 4;
 
 /// The builder's options as Python passes them (`None`: the default).
 #[derive(FromPyObject)]
@@ -89,7 +85,7 @@ fn build_blob(
             write_triangle_tree(&built, tris).map_err(|e| e.to_string())
         })
         .map_err(|e| PyValueError::new_err(format!("{what}: {e}")))?;
-    let bytes = Bytes::from_blob(py, blob, ALIGN);
+    let bytes = Bytes::from_blob(py, blob, HeldTree::ALIGN);
     let held = py.detach(|| HeldTree::new(bytes))?;
     Ok(TriangleTree { held })
 }
@@ -163,18 +159,14 @@ impl TriangleTree {
     /// and aligned and `copy` is false; copied otherwise).
     #[staticmethod]
     fn from_buffer(buffer: &Bound<'_, PyAny>, copy: bool) -> PyResult<TriangleTree> {
-        let bytes = Bytes::from_buffer(buffer, ALIGN, copy)?;
-        let held = buffer.py().detach(|| HeldTree::new(bytes))?;
+        let held = HeldTree::from_buffer(buffer, copy)?;
         Ok(TriangleTree { held })
     }
 
     /// Reads and validates a blob file.
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<TriangleTree> {
-        let blob = py
-            .detach(|| kdray_tools::blob::Blob::read(&path))
-            .map_err(|e| PyOSError::new_err(format!("{}: {e}", path.display())))?;
-        let held = py.detach(|| HeldTree::new(Bytes::Owned(blob)))?;
+        let held = HeldTree::load(py, &path)?;
         Ok(TriangleTree { held })
     }
 
@@ -186,9 +178,7 @@ impl TriangleTree {
     /// Writes the blob to `path` (the tools' writer: a temporary file
     /// renamed into place).
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
-        let bytes = self.held.bytes().as_slice();
-        py.detach(|| kdray_tools::io::write_bytes(&path, bytes))
-            .map_err(|e| PyOSError::new_err(e.to_string()))
+        self.held.bytes().save(py, &path)
     }
 
     /// The triangles, `(F, 3, 3)` float32, in mesh order.

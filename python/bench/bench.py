@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import os
+from collections import Counter
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -306,7 +307,7 @@ def dask_rows(rows: list[tuple[str, float]], n: int) -> None:
     """
     import dask
     import dask.array as da
-    from distributed import Client, LocalCluster, wait
+    from distributed import Client, LocalCluster, get_task_stream, wait
 
     import kdray.dask as kd
 
@@ -331,11 +332,14 @@ def dask_rows(rows: list[tuple[str, float]], n: int) -> None:
         local = rays.compute()
         s_one, s_all = best(1, lambda: tree.cast_rays(local, 1), lambda: tree.cast_rays(local, 0))
         hits = kd.cast_rays(tree, rays, nthreads=1)
-        t = time.perf_counter()
-        kept = client.persist(list(hits.values()))
-        wait(kept)
-        s_kept = time.perf_counter() - t
+        with get_task_stream(client) as stream:
+            t = time.perf_counter()
+            kept = client.persist(list(hits.values()))
+            wait(kept)
+            s_kept = time.perf_counter() - t
+        traced = Counter(str(task["worker"]) for task in stream.data if "_records_block" in str(task["key"]))
         del kept
+        hits = kd.cast_rays(tree, rays, nthreads=1)  # new keys: traced again, not read back
         t = time.perf_counter()
         dask.compute(*hits.values())
         s_gathered = time.perf_counter() - t
@@ -351,8 +355,11 @@ def dask_rows(rows: list[tuple[str, float]], n: int) -> None:
     rows.append((f"{tag}: dask 2 local workers, answers gathered, Mrays/s", n / s_gathered / 1e6))
     rows.append(("dask kept vs one process all cores (throughput ratio)", s_all / s_kept))
     rows.append(("dask gathered vs one process all cores (throughput ratio)", s_all / s_gathered))
+    rows.append(("dask: blocks traced per worker, fewest", float(min(traced.values(), default=0))))
+    rows.append(("dask: blocks traced per worker, most", float(max(traced.values(), default=0))))
+    rows.append(("dask: workers that traced blocks", float(len(traced))))
     rows.append(("dask: tree copies held per worker after the run", float(max(held.values()))))
-    rows.append(("dask: workers holding the tree", float(sum(1 for c in held.values() if c))))
+    rows.append(("dask: workers holding the tree after the run", float(sum(1 for c in held.values() if c))))
 
 
 def main() -> None:

@@ -87,9 +87,7 @@ impl Bytes {
         }
         PyBytes::new(py, self.as_slice()).into_any()
     }
-}
 
-impl Bytes {
     /// A blob file, read by the tools' reader with the GIL released (an
     /// `OSError` naming the path when it cannot be read).
     pub(crate) fn read(py: Python<'_>, path: &Path) -> PyResult<Bytes> {

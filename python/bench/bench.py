@@ -295,6 +295,16 @@ def distance_rows(rows: list[tuple[str, float]], n: int, reps: int) -> None:
             rows.append(
                 (f"{short} {kind} compute_closest_points vs trimesh (1/50 of the points)", s_tm / s_cp_s)
             )
+        one = uniform[:1].astype(np.float32)
+        t1 = o3d.core.Tensor(one)
+        calls = 2000
+        s_kd, s_o = best(
+            3,
+            lambda: [tree.compute_distance(one, 1) for _ in range(calls)],
+            lambda: [scene.compute_distance(t1, nthreads=1) for _ in range(calls)],
+        )
+        rows.append((f"{short} one-point compute_distance: kdray us/call", s_kd / calls * 1e6))
+        rows.append((f"{short} one-point compute_distance: Open3D us/call", s_o / calls * 1e6))
 
 
 def dask_rows(rows: list[tuple[str, float]], n: int, reps: int) -> None:

@@ -184,7 +184,7 @@ def test_closest_points_equal_the_numpy_oracle(tree: kdray.TriangleTree) -> None
 
 
 def test_closest_points_equal_the_kernels_brute_force(tree: kdray.TriangleTree) -> None:
-    q = queries_for(tree, 4000, 2)  # past the serial size: the pool's path
+    q = queries_for(tree, 4000, 2)  # many rayon tasks of 256 queries, on two threads
     got = tree.compute_closest_points(q, nthreads=2)
     points, ids, uvs, d2 = tree._tree.closest_points_brute(q)
     assert_closest_equal(got, {"points": points, "primitive_ids": ids, "primitive_uvs": uvs})

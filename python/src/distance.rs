@@ -69,18 +69,21 @@ pub(crate) fn closest_points<'py>(
     ))
 }
 
-/// `fill(out)` on the `nthreads` pool with the GIL released: one of the
-/// tools' batch calls writing one answer per query into `out`.
+/// One answer per query point of `points` by `fill(tree, queries, out)`
+/// (one of the tools' batch calls) on the `nthreads` pool, the GIL
+/// released.
 pub(crate) fn answers<'py, T: Copy + Send + numpy::Element>(
     py: Python<'py>,
-    n: usize,
+    tree: &TriangleTree<'_>,
+    points: &PyReadonlyArray2<'py, f32>,
     nthreads: usize,
     zero: T,
-    fill: impl FnOnce(&mut [T]) + Send,
+    fill: impl FnOnce(&TriangleTree<'_>, &[[f32; 3]], &mut [T]) + Send,
 ) -> PyResult<Bound<'py, PyArray1<T>>> {
+    let queries = point_slice(points)?;
     let out = py.detach(|| {
-        let mut out = vec![zero; n];
-        pools::install(nthreads, || fill(&mut out))?;
+        let mut out = vec![zero; queries.len()];
+        pools::install(nthreads, || fill(tree, queries, &mut out))?;
         Ok::<_, PyErr>(out)
     })?;
     Ok(PyArray1::from_vec(py, out))

@@ -13,6 +13,7 @@ use kdray_kernel::{
 };
 use kdray_tools::blob::write_triangle_tree;
 use kdray_tools::builders::{build, BuildParams, BuilderKind};
+use kdray_tools::distance as tools;
 use kdray_tools::trace::{trace_into, trace_serial, Order, PacketWidth, Query};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
@@ -286,11 +287,8 @@ impl TriangleTree {
         points: PyReadonlyArray2<'py, f32>,
         nthreads: usize,
     ) -> PyResult<Bound<'py, PyArray1<f32>>> {
-        let queries = point_slice(&points)?;
         let tree = self.held.tree().tree();
-        answers(py, queries.len(), nthreads, 0.0, |out| {
-            kdray_tools::distance::distances(&tree, queries, out);
-        })
+        answers(py, &tree, &points, nthreads, 0.0, tools::distances)
     }
 
     /// The signed distance of each query: negative inside by the rule of
@@ -303,10 +301,9 @@ impl TriangleTree {
         nsamples: u32,
     ) -> PyResult<Bound<'py, PyArray1<f32>>> {
         let rule = inside_rule(nsamples)?;
-        let queries = point_slice(&points)?;
         let tree = self.held.tree().tree();
-        answers(py, queries.len(), nthreads, 0.0, |out| {
-            kdray_tools::distance::signed_distances(&tree, queries, rule, out);
+        answers(py, &tree, &points, nthreads, 0.0, |t, q, out| {
+            tools::signed_distances(t, q, rule, out);
         })
     }
 
@@ -319,10 +316,9 @@ impl TriangleTree {
         nsamples: u32,
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
         let rule = inside_rule(nsamples)?;
-        let queries = point_slice(&points)?;
         let tree = self.held.tree().tree();
-        answers(py, queries.len(), nthreads, false, |out| {
-            kdray_tools::distance::occupancy(&tree, queries, rule, out);
+        answers(py, &tree, &points, nthreads, false, |t, q, out| {
+            tools::occupancy(t, q, rule, out);
         })
     }
 

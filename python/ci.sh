@@ -10,7 +10,7 @@ cd "$(dirname "$0")"
 VENV=$(realpath -m "${KDRAY_PY_VENV:-../target/py-venv}")
 [ -x "$VENV/bin/python" ] || python3 -m venv "$VENV"
 "$VENV/bin/pip" install -q --upgrade pip
-"$VENV/bin/pip" install -q maturin numpy pytest hypothesis scipy trimesh "dask[array,distributed]" ruff mypy
+"$VENV/bin/pip" install -q maturin numpy pytest hypothesis scipy trimesh rtree "dask[array,distributed]" ruff mypy
 cargo fmt --manifest-path Cargo.toml -- --check
 cargo clippy --manifest-path Cargo.toml --all-targets -- -D warnings
 "$VENV/bin/pip" install -q --force-reinstall --no-deps .

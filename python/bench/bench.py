@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -228,10 +229,95 @@ def points_rows(rows: list[tuple[str, float]], n: int, m: int, reps: int) -> Non
     rows.append(("one-query cKDTree.query: scipy us/call", s_sp / calls * 1e6))
 
 
-def dask_rows(rows: list[tuple[str, float]], n: int) -> None:
+def near_surface(v: np.ndarray, f: np.ndarray, n: int, seed: int) -> np.ndarray:
+    """Points within 1% of the box diagonal of random surface points."""
+    rng = np.random.default_rng(seed)
+    tri = v[f[rng.integers(0, len(f), n)]].astype(np.float64)
+    a, b = rng.random((2, n, 1))
+    flip = a + b > 1
+    a, b = np.where(flip, 1 - a, a), np.where(flip, 1 - b, b)
+    p = tri[:, 0] + a * (tri[:, 1] - tri[:, 0]) + b * (tri[:, 2] - tri[:, 0])
+    diag = float(np.linalg.norm(v.max(0) - v.min(0)))
+    step = rng.normal(size=(n, 3))
+    step *= (rng.random((n, 1)) * 0.01 * diag) / np.linalg.norm(step, axis=1, keepdims=True)
+    return (p + step).astype(np.float32)
+
+
+def distance_rows(rows: list[tuple[str, float]], n: int, reps: int) -> None:
+    """Closest points, signed distance and occupancy beside Open3D and trimesh, one thread."""
+    import open3d as o3d
+    import trimesh
+
+    for name in ("stanford-bunny.obj", "sponza.obj"):
+        if not (MESHES / name).is_file():
+            print(f"# {name}: not found, skipped")
+            continue
+        v, f = load(name)
+        tree = kdray.TriangleTree(v, f)
+        scene = o3d.t.geometry.RaycastingScene(nthreads=1)
+        scene.add_triangles(o3d.core.Tensor(v), o3d.core.Tensor(f))
+        tm = trimesh.Trimesh(v, f, process=False)
+        short = name.split(".")[0].replace("stanford-", "")
+        lo, hi = v.min(0), v.max(0)
+        pad = (hi - lo) * 0.1
+        uniform = (lo - pad + (hi - lo + 2 * pad) * np.random.default_rng(5).random((n, 3)))
+        for kind, q in (("uniform", uniform.astype(np.float32)), ("near", near_surface(v, f, n, 6))):
+            t = o3d.core.Tensor(q)
+            s_cp, s_ocp = best(
+                reps,
+                lambda: tree.compute_closest_points(q, 1),
+                lambda: scene.compute_closest_points(t, nthreads=1),
+            )
+            rows.append((f"{short} {kind} compute_closest_points vs Open3D, nthreads=1", s_ocp / s_cp))
+            rows.append((f"{short} {kind} kdray closest points k/s, nthreads=1", n / s_cp / 1e3))
+            s_sd, s_osd = best(
+                reps,
+                lambda: tree.compute_signed_distance(q, 1),
+                lambda: scene.compute_signed_distance(t, nthreads=1),
+            )
+            rows.append((f"{short} {kind} compute_signed_distance vs Open3D, nthreads=1", s_osd / s_sd))
+            s_oc, s_ooc = best(
+                reps,
+                lambda: tree.compute_occupancy(q, 1),
+                lambda: scene.compute_occupancy(t, nthreads=1),
+            )
+            rows.append((f"{short} {kind} compute_occupancy vs Open3D, nthreads=1", s_ooc / s_oc))
+            try:
+                import rtree  # noqa: F401  (trimesh's closest_point needs it)
+            except ImportError:
+                continue
+            sub = q[: max(1, n // 50)]
+            s_cp_s, s_tm = best(
+                1,
+                lambda: tree.compute_closest_points(sub, 1),
+                lambda: trimesh.proximity.closest_point(tm, sub),
+            )
+            rows.append(
+                (f"{short} {kind} compute_closest_points vs trimesh (1/50 of the points)", s_tm / s_cp_s)
+            )
+        one = uniform[:1].astype(np.float32)
+        t1 = o3d.core.Tensor(one)
+        calls = 2000
+        s_kd, s_o = best(
+            3,
+            lambda: [tree.compute_distance(one, 1) for _ in range(calls)],
+            lambda: [scene.compute_distance(t1, nthreads=1) for _ in range(calls)],
+        )
+        rows.append((f"{short} one-point compute_distance: kdray us/call", s_kd / calls * 1e6))
+        rows.append((f"{short} one-point compute_distance: Open3D us/call", s_o / calls * 1e6))
+
+
+def dask_rows(rows: list[tuple[str, float]], n: int, reps: int) -> None:
+    """Throughput of ``kdray.dask.cast_rays`` on two local worker processes beside one process.
+
+    The rays are made on the workers (as docs/python.md's example does) and
+    fetched once for the one-process calls; best of ``reps`` passes each.
+    Timed on the cluster: the answers kept on the workers (``persist``), and
+    gathered to the client (``compute``, 40 bytes a ray over the wire).
+    """
     import dask
     import dask.array as da
-    from distributed import Client, LocalCluster
+    from distributed import Client, LocalCluster, get_task_stream, wait
 
     import kdray.dask as kd
 
@@ -239,33 +325,59 @@ def dask_rows(rows: list[tuple[str, float]], n: int) -> None:
         return
     v, f = load("stanford-bunny.obj")
     tree = kdray.TriangleTree(v, f)
-    rays = scattered(v, n, 4)
-    (s_one,) = best(1, lambda: tree.cast_rays(rays, 1))
+    lo, hi = v.min(0), v.max(0)
+    chunk = 1_000_000
     with (
         LocalCluster(
             n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
         ) as cl,
         Client(cl) as client,
     ):
-        arr = da.from_array(rays, chunks=(n // 8, 6))
-        arr = client.persist(arr)
-        hits = kd.cast_rays(tree, arr, nthreads=1)
-        t = time.perf_counter()
-        dask.compute(*hits.values())
-        s_dask = time.perf_counter() - t
+        client.wait_for_workers(2)
+        rng = da.random.default_rng(4)
+        origins = lo + (hi - lo) * rng.random((n, 3), chunks=(chunk, 3))
+        rays = da.concatenate([origins, rng.normal(size=(n, 3), chunks=(chunk, 3))], axis=1)
+        rays = client.persist(rays.astype(np.float32))
+        wait(rays)
+        local = rays.compute()
+        s_one, s_all = best(
+            reps, lambda: tree.cast_rays(local, 1), lambda: tree.cast_rays(local, 0)
+        )
+        s_kept = s_gathered = np.inf
+        traced: Counter[str] = Counter()
+        for _ in range(reps):
+            # New keys each pass (a new scatter): traced again, never read back.
+            hits = kd.cast_rays(tree, rays, nthreads=1)
+            with get_task_stream(client) as stream:
+                t = time.perf_counter()
+                kept = client.persist(list(hits.values()))
+                wait(kept)
+                s_kept = min(s_kept, time.perf_counter() - t)
+            traced = Counter(
+                str(task["worker"]) for task in stream.data if "_records_block" in str(task["key"])
+            )
+            del kept
+            hits = kd.cast_rays(tree, rays, nthreads=1)
+            t = time.perf_counter()
+            dask.compute(*hits.values())
+            s_gathered = min(s_gathered, time.perf_counter() - t)
         held = client.run(
             lambda dask_worker: sum(
                 isinstance(x, kdray.TriangleTree) for x in dask_worker.data.values()
             )
         )
-    rows.append(
-        (
-            f"dask 2 local workers vs one process, bunny {n // 1000}k random rays (throughput ratio)",
-            s_one / s_dask,
-        )
-    )
+    tag = f"bunny {n / 1e6:g}M random rays"
+    rows.append((f"{tag}: one process, nthreads=1, Mrays/s", n / s_one / 1e6))
+    rows.append((f"{tag}: one process, all cores, Mrays/s", n / s_all / 1e6))
+    rows.append((f"{tag}: dask 2 local workers, answers kept on the workers, Mrays/s", n / s_kept / 1e6))
+    rows.append((f"{tag}: dask 2 local workers, answers gathered, Mrays/s", n / s_gathered / 1e6))
+    rows.append(("dask kept vs one process all cores (throughput ratio)", s_all / s_kept))
+    rows.append(("dask gathered vs one process all cores (throughput ratio)", s_all / s_gathered))
+    rows.append(("dask: blocks traced per worker, fewest", float(min(traced.values(), default=0))))
+    rows.append(("dask: blocks traced per worker, most", float(max(traced.values(), default=0))))
+    rows.append(("dask: workers that traced blocks", float(len(traced))))
     rows.append(("dask: tree copies held per worker after the run", float(max(held.values()))))
-    rows.append(("dask: workers holding the tree", float(sum(1 for c in held.values() if c))))
+    rows.append(("dask: workers holding the tree after the run", float(sum(1 for c in held.values() if c))))
 
 
 def main() -> None:
@@ -274,13 +386,27 @@ def main() -> None:
         "--quick", action="store_true", help="100k rays / 100k points, 1 rep: a smoke run"
     )
     ap.add_argument("--reps", type=int, default=3)
+    ap.add_argument(
+        "--only",
+        nargs="+",
+        choices=("rays", "points", "distance", "dask"),
+        help="run only these groups of rows (default: all)",
+    )
+    ap.add_argument("--distance-points", type=int, help="query points per distance row (default 1M)")
+    ap.add_argument("--dask-rays", type=int, help="rays of the Dask rows (default 4M)")
     a = ap.parse_args()
     n_rays, n_pts, n_q = (100_000, 100_000, 10_000) if a.quick else (1_000_000, 1_000_000, 100_000)
     reps = 1 if a.quick else a.reps
     rows: list[tuple[str, float]] = []
-    rays_rows(rows, n_rays, reps)
-    points_rows(rows, n_pts, n_q, reps)
-    dask_rows(rows, 4 * n_rays)
+    only = set(a.only or ("rays", "points", "distance", "dask"))
+    if "rays" in only:
+        rays_rows(rows, n_rays, reps)
+    if "points" in only:
+        points_rows(rows, n_pts, n_q, reps)
+    if "distance" in only:
+        distance_rows(rows, a.distance_points or n_pts, reps)
+    if "dask" in only:
+        dask_rows(rows, a.dask_rays or 4 * n_rays, reps)
     width = max(len(r[0]) for r in rows)
     print(f"{'row':<{width}}  value")
     for name, value in rows:

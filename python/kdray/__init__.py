@@ -1,8 +1,10 @@
 """kdray: exact k-d tree ray casting and nearest-neighbour search over numpy arrays.
 
 - :class:`TriangleTree`: a triangle mesh's k-d tree; ``cast_rays``,
-  ``test_occlusions``, ``count_intersections`` and ``list_intersections``
-  with Open3D's ``RaycastingScene`` names and miss conventions.
+  ``test_occlusions``, ``count_intersections`` and ``list_intersections``,
+  ``compute_closest_points``, ``compute_distance``,
+  ``compute_signed_distance`` and ``compute_occupancy`` with Open3D's
+  ``RaycastingScene`` names and conventions.
 - :class:`Scene`: a scene blob of instanced meshes (``kdray build
   --instances``) with the same calls and ``geometry_ids``.
 - :class:`KDTree`: a point k-d tree with ``scipy.spatial.KDTree``'s
@@ -20,7 +22,7 @@ from __future__ import annotations
 import os
 import pickle
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 import numpy.typing as npt
@@ -96,6 +98,14 @@ def _nthreads(nthreads: int) -> int:
     return n
 
 
+def _nsamples(nsamples: int) -> int:
+    """Open3D's ``nsamples``: an odd number of rays from 1 to 7."""
+    ok = isinstance(nsamples, (int, np.integer)) and not isinstance(nsamples, (bool, np.bool_))
+    if not (ok and 1 <= nsamples <= 7 and nsamples % 2 == 1):
+        raise ValueError(f"nsamples must be an odd number from 1 to 7, not {nsamples!r}")
+    return int(nsamples)
+
+
 def _rays(
     rays: Any,
     origins: Any,
@@ -137,6 +147,15 @@ def _rays(
     return out.reshape(-1, 8), lead
 
 
+def _points(query_points: Any) -> tuple[np.ndarray, tuple[int, ...]]:
+    """The query points as a C-contiguous ``(N, 3)`` float32 array and their leading shape."""
+    q = _array(query_points, "query_points")
+    if q.ndim < 1 or q.shape[-1] != 3:
+        raise ValueError(f"query_points: expected shape (..., 3), got {q.shape}")
+    with np.errstate(over="ignore"):  # beyond float32: inf, a NaN distance
+        return np.ascontiguousarray(q.reshape(-1, 3), dtype=_F32), q.shape[:-1]
+
+
 def _ray_splits(splits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Open3D's ``ray_splits`` and ``ray_ids`` of a hit list's ``splits``."""
     starts = splits.astype(np.int64)
@@ -156,7 +175,28 @@ def _reduce(obj: Any, protocol: int, rebuild: Any) -> tuple[Any, tuple[Any, ...]
 # --- triangles -------------------------------------------------------------
 
 
-class _RayQueries:
+class _Blob:
+    """What every tree shares: it is its blob, held by the compiled object ``_tree``."""
+
+    __slots__ = ()
+    _tree: Any
+
+    @classmethod
+    def _wrap(cls, tree: Any) -> Self:
+        self = cls.__new__(cls)
+        self._tree = tree
+        return self
+
+    def to_bytes(self) -> bytes:
+        """The blob (the bytes ``kdray build`` writes), without a copy where it is held as ``bytes``."""
+        return self._tree.to_bytes()  # type: ignore[no-any-return]
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Writes the blob to ``path`` (a temporary file renamed into place), as ``kdray build`` does."""
+        self._tree.save(os.fspath(path))
+
+
+class _RayQueries(_Blob):
     """The ray calls ``TriangleTree`` and ``Scene`` share."""
 
     __slots__ = ()
@@ -245,17 +285,10 @@ class _RayQueries:
         result["primitive_uvs"] = out[-1]
         return result
 
-    def to_bytes(self) -> bytes:
-        """The blob (the bytes ``kdray build`` writes), without a copy where it is held as ``bytes``."""
-        return self._tree.to_bytes()  # type: ignore[no-any-return]
-
-    def save(self, path: str | os.PathLike[str]) -> None:
-        """Writes the blob to ``path`` (a temporary file renamed into place), as ``kdray build`` does."""
-        self._tree.save(os.fspath(path))
 
 
 class TriangleTree(_RayQueries):
-    """A triangle mesh's k-d tree, for exact ray casting.
+    """A triangle mesh's k-d tree, for exact ray casting and distance queries.
 
     Build from ``vertices`` ``(V, 3)`` (any float or integer dtype; stored
     as float32) and ``triangles`` ``(F, 3)`` (integer indices into
@@ -305,12 +338,6 @@ class TriangleTree(_RayQueries):
         tris = np.ascontiguousarray(v32[f])
         opts = _options(builder, max_depth, traversal_cost, intersection_cost, empty_bonus, threads)
         self._tree = _kdray.TriangleTree.build(tris, opts)
-
-    @classmethod
-    def _wrap(cls, tree: Any) -> TriangleTree:
-        self = cls.__new__(cls)
-        self._tree = tree
-        return self
 
     @classmethod
     def from_file(
@@ -376,6 +403,67 @@ class TriangleTree(_RayQueries):
     def _occluded(self, rays: np.ndarray, nthreads: int, packet: int) -> np.ndarray:
         return self._tree.occluded(rays, nthreads, packet)  # type: ignore[no-any-return]
 
+    def compute_closest_points(
+        self, query_points: npt.ArrayLike, nthreads: int = 0
+    ) -> dict[str, np.ndarray]:
+        """The closest point on the mesh to each query, with Open3D's names.
+
+        ``query_points`` is ``(..., 3)`` (any float dtype; answered in
+        float32). Returns ``points`` (float32 ``(..., 3)``),
+        ``primitive_ids`` (uint32, the triangle; at equal distance the
+        lower index), ``primitive_uvs`` (``(..., 2)``, the barycentric
+        weights of vertices 1 and 2 at the point) and ``primitive_normals``
+        (``(..., 3)``, the triangle's unit normal as :meth:`cast_rays`
+        gives it). A query with a NaN or infinite coordinate has no
+        closest point: NaN ``points`` and ``primitive_uvs``, :data:`MISS`,
+        a zero normal. Exact: the answer of testing every triangle, bit
+        for bit. ``nthreads``: 0 for all cores.
+        """
+        q, lead = _points(query_points)
+        out = self._tree.closest_points(q, _nthreads(nthreads))
+        names = ("points", "primitive_ids", "primitive_uvs", "primitive_normals")
+        tails = ((3,), (), (2,), (3,))
+        return {n: a.reshape(lead + t) for n, a, t in zip(names, out, tails)}
+
+    def compute_distance(self, query_points: npt.ArrayLike, nthreads: int = 0) -> np.ndarray:
+        """The distance from each query ``(..., 3)`` to the mesh: float32, of the leading shape.
+
+        The square root of the exact closest point's squared distance
+        (computed in float64), rounded once; NaN for a query with a NaN or
+        infinite coordinate.
+        """
+        q, lead = _points(query_points)
+        return self._tree.distances(q, _nthreads(nthreads)).reshape(lead)  # type: ignore[no-any-return]
+
+    def compute_signed_distance(
+        self, query_points: npt.ArrayLike, nthreads: int = 0, nsamples: int = 1
+    ) -> np.ndarray:
+        """:meth:`compute_distance`, negative inside the mesh: float32, of the leading shape.
+
+        Inside is decided as :meth:`compute_occupancy` decides it. A point
+        on the surface (distance 0) may get either sign.
+        """
+        q, lead = _points(query_points)
+        rule = _nsamples(nsamples)
+        return self._tree.signed_distances(q, _nthreads(nthreads), rule).reshape(lead)  # type: ignore[no-any-return]
+
+    def compute_occupancy(
+        self, query_points: npt.ArrayLike, nthreads: int = 0, nsamples: int = 1
+    ) -> np.ndarray:
+        """Whether each query ``(..., 3)`` is inside the mesh: float32 1 or 0 (Open3D's), of the leading shape.
+
+        ``nsamples=1``: the parity of the crossings of one ray from the
+        point (closed meshes; a ray through an edge or a vertex is counted
+        once). ``nsamples`` 3, 5 or 7: the majority of that many rays in
+        fixed directions, each by parity (for open or self-intersecting
+        meshes). A point outside the tree's bounds, or with a NaN or
+        infinite coordinate, is outside.
+        """
+        q, lead = _points(query_points)
+        rule = _nsamples(nsamples)
+        inside = self._tree.occupancy(q, _nthreads(nthreads), rule)
+        return inside.astype(_F32).reshape(lead)  # type: ignore[no-any-return]
+
     def __reduce_ex__(self, protocol: Any) -> tuple[Any, tuple[Any, ...]]:
         return _reduce(self, int(protocol), _triangle_tree)
 
@@ -396,12 +484,6 @@ class Scene(_RayQueries):
 
     def __init__(self) -> None:
         raise TypeError("open a scene with Scene.load(path) or Scene.from_bytes(buffer)")
-
-    @classmethod
-    def _wrap(cls, tree: Any) -> Scene:
-        self = cls.__new__(cls)
-        self._tree = tree
-        return self
 
     @classmethod
     def from_bytes(cls, buffer: Any, *, copy: bool = False) -> Scene:
@@ -443,7 +525,7 @@ class Scene(_RayQueries):
 # --- points ----------------------------------------------------------------
 
 
-class KDTree:
+class KDTree(_Blob):
     """A point k-d tree with ``scipy.spatial.KDTree``'s ``query`` and ``query_ball_point``.
 
     ``data`` is ``(n, m)`` with ``m`` from 1 to :data:`MAX_DIM`; float32
@@ -455,6 +537,7 @@ class KDTree:
     """
 
     __slots__ = ("_tree",)
+    _tree: _kdray.PointTree
 
     def __init__(
         self,
@@ -486,12 +569,6 @@ class KDTree:
         self._tree = _kdray.PointTree.build(a, None if leafsize is None else int(leafsize))
 
     @classmethod
-    def _wrap(cls, tree: Any) -> KDTree:
-        self = cls.__new__(cls)
-        self._tree = tree
-        return self
-
-    @classmethod
     def from_bytes(cls, buffer: Any, *, copy: bool = False) -> KDTree:
         """A tree from its blob (``kdray build-points``' output), validated; read in place when read-only and 8-byte aligned."""
         return cls._wrap(_kdray.PointTree.from_buffer(buffer, copy))
@@ -500,14 +577,6 @@ class KDTree:
     def load(cls, path: str | os.PathLike[str]) -> KDTree:
         """Reads and validates a point blob file."""
         return cls._wrap(_kdray.PointTree.load(os.fspath(path)))
-
-    def to_bytes(self) -> bytes:
-        """The blob."""
-        return self._tree.to_bytes()
-
-    def save(self, path: str | os.PathLike[str]) -> None:
-        """Writes the blob to ``path`` (a temporary file renamed into place)."""
-        self._tree.save(os.fspath(path))
 
     @property
     def n(self) -> int:

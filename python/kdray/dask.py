@@ -1,4 +1,4 @@
-"""kdray over Dask: ray casting and k-nearest queries on arrays chunked by rows.
+"""kdray over Dask: ray casting, distance and k-nearest queries on arrays chunked by rows.
 
 Install with ``pip install "kdray[dask]"``. The tree goes to each worker
 once: with a ``distributed`` client active, it is scattered with
@@ -25,15 +25,32 @@ from typing import Any
 import dask.array as da
 import numpy as np
 
-from . import KDTree, Scene, TriangleTree
+from . import KDTree, Scene, TriangleTree, _nsamples
 
-__all__ = ["cast_rays", "query", "scatter"]
+__all__ = [
+    "cast_rays",
+    "compute_closest_points",
+    "compute_distance",
+    "compute_occupancy",
+    "compute_signed_distance",
+    "query",
+    "scatter",
+]
 
-# A block of `cast_rays` answers, one record a ray: every field computed
-# once per block, the dask arrays returned are views of it.
+# A block of `cast_rays` (or `compute_closest_points`) answers, one record
+# a row: every field computed once per block, the dask arrays returned are
+# views of it.
 _HIT = np.dtype(
     [
         ("t_hit", np.float32),
+        ("primitive_ids", np.uint32),
+        ("primitive_uvs", np.float32, (2,)),
+        ("primitive_normals", np.float32, (3,)),
+    ]
+)
+_CLOSEST = np.dtype(
+    [
+        ("points", np.float32, (3,)),
         ("primitive_ids", np.uint32),
         ("primitive_uvs", np.float32, (2,)),
         ("primitive_normals", np.float32, (3,)),
@@ -78,29 +95,29 @@ def _rows(x: Any, width: int, name: str) -> Any:
     return arr
 
 
-def _cast_block(block: np.ndarray, tree: Any, nthreads: int, dtype: np.dtype[Any]) -> np.ndarray:
-    hits = tree.cast_rays(block, nthreads)
+def _records_block(
+    block: np.ndarray, tree: Any, method: str, args: tuple[Any, ...], dtype: np.dtype[Any]
+) -> np.ndarray:
+    """``tree.<method>(block, *args)``'s dict of arrays as one record array."""
+    got = getattr(tree, method)(block, *args)
     out = np.empty(block.shape[0], dtype=dtype)
     for name in dtype.names or ():
-        out[name] = hits[name]
+        out[name] = got[name]
     return out
 
 
-def cast_rays(tree: TriangleTree | Scene, rays: Any, nthreads: int = 0) -> dict[str, Any]:
-    """``tree.cast_rays`` over a dask array ``(N, 6)`` chunked by rows.
+def _by_records(
+    rows: Any, tree: Any, method: str, args: tuple[Any, ...], dtype: np.dtype[Any]
+) -> dict[str, Any]:
+    """A call returning a dict of arrays, block by block: the dict's names as dask arrays.
 
-    Returns the same names as the direct call, as dask arrays chunked as
-    ``rays``; compute them together (``dask.compute(*d.values())``) to
-    trace each block once.
+    Each block is answered once, as records; the returned arrays are its fields.
     """
-    if not isinstance(tree, (TriangleTree, Scene)):
-        raise TypeError(f"tree: expected a kdray.TriangleTree or kdray.Scene, got {type(tree)}")
-    r = _rows(rays, 6, "rays")
-    dtype = _SCENE_HIT if isinstance(tree, Scene) else _HIT
-    records = r.map_blocks(
-        _cast_block,
+    records = rows.map_blocks(
+        _records_block,
         scatter(tree),
-        nthreads,
+        method,
+        args,
         dtype,
         drop_axis=1,
         dtype=dtype,
@@ -123,6 +140,77 @@ def cast_rays(tree: TriangleTree | Scene, rays: Any, nthreads: int = 0) -> dict[
         else:
             out[name] = records.map_blocks(_field, name, dtype=field, meta=np.empty((0,), field))
     return out
+
+
+def _row_block(block: np.ndarray, tree: Any, method: str, args: tuple[Any, ...]) -> np.ndarray:
+    return getattr(tree, method)(block, *args)  # type: ignore[no-any-return]
+
+
+def _by_row(rows: Any, tree: Any, method: str, args: tuple[Any, ...], dtype: Any) -> Any:
+    """A call returning one value a row, block by block: a 1-D dask array."""
+    return rows.map_blocks(
+        _row_block,
+        scatter(tree),
+        method,
+        args,
+        drop_axis=1,
+        dtype=dtype,
+        meta=np.empty((0,), dtype=dtype),
+    )
+
+
+def cast_rays(tree: TriangleTree | Scene, rays: Any, nthreads: int = 0) -> dict[str, Any]:
+    """``tree.cast_rays`` over a dask array ``(N, 6)`` chunked by rows.
+
+    Returns the same names as the direct call, as dask arrays chunked as
+    ``rays``; compute them together (``dask.compute(*d.values())``) to
+    trace each block once.
+    """
+    if not isinstance(tree, (TriangleTree, Scene)):
+        raise TypeError(f"tree: expected a kdray.TriangleTree or kdray.Scene, got {type(tree)}")
+    dtype = _SCENE_HIT if isinstance(tree, Scene) else _HIT
+    return _by_records(_rows(rays, 6, "rays"), tree, "cast_rays", (nthreads,), dtype)
+
+
+def _points(tree: Any, query_points: Any) -> Any:
+    if not isinstance(tree, TriangleTree):
+        raise TypeError(f"tree: expected a kdray.TriangleTree, got {type(tree)}")
+    return _rows(query_points, 3, "query_points")
+
+
+def compute_closest_points(tree: TriangleTree, query_points: Any, nthreads: int = 0) -> dict[str, Any]:
+    """``tree.compute_closest_points`` over a dask array ``(N, 3)`` chunked by rows.
+
+    Returns the same names as the direct call, as dask arrays chunked as
+    ``query_points``; compute them together to answer each block once.
+    """
+    q = _points(tree, query_points)
+    return _by_records(q, tree, "compute_closest_points", (nthreads,), _CLOSEST)
+
+
+def compute_distance(tree: TriangleTree, query_points: Any, nthreads: int = 0) -> Any:
+    """``tree.compute_distance`` over a dask array ``(N, 3)`` chunked by rows: ``(N,)`` float32."""
+    return _by_row(_points(tree, query_points), tree, "compute_distance", (nthreads,), np.float32)
+
+
+def _inside(method: str, tree: TriangleTree, query_points: Any, nthreads: int, nsamples: int) -> Any:
+    """A call that takes ``nsamples`` (the inside rule), checked before any block runs."""
+    q = _points(tree, query_points)
+    return _by_row(q, tree, method, (nthreads, _nsamples(nsamples)), np.float32)
+
+
+def compute_signed_distance(
+    tree: TriangleTree, query_points: Any, nthreads: int = 0, nsamples: int = 1
+) -> Any:
+    """``tree.compute_signed_distance`` over a dask array ``(N, 3)`` chunked by rows: ``(N,)`` float32."""
+    return _inside("compute_signed_distance", tree, query_points, nthreads, nsamples)
+
+
+def compute_occupancy(
+    tree: TriangleTree, query_points: Any, nthreads: int = 0, nsamples: int = 1
+) -> Any:
+    """``tree.compute_occupancy`` over a dask array ``(N, 3)`` chunked by rows: ``(N,)`` float32 0 or 1."""
+    return _inside("compute_occupancy", tree, query_points, nthreads, nsamples)
 
 
 def _field(block: np.ndarray, name: str) -> np.ndarray:

@@ -6,9 +6,10 @@ use crate::BlobError as PyBlobError;
 use kdray_kernel::{Scene, Treelet, TreeletTree, TriangleTree};
 use kdray_tools::blob::Blob;
 use pyo3::buffer::PyBuffer;
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
+use std::path::Path;
 
 /// Where a tree's blob lives.
 pub(crate) enum Bytes {
@@ -86,6 +87,45 @@ impl Bytes {
         }
         PyBytes::new(py, self.as_slice()).into_any()
     }
+
+    /// A blob file, read by the tools' reader with the GIL released (an
+    /// `OSError` naming the path when it cannot be read).
+    pub(crate) fn read(py: Python<'_>, path: &Path) -> PyResult<Bytes> {
+        py.detach(|| Blob::read(path))
+            .map(Bytes::Owned)
+            .map_err(|e| PyOSError::new_err(format!("{}: {e}", path.display())))
+    }
+
+    /// Writes the bytes to `path` with the tools' writer (a temporary file
+    /// renamed into place), the GIL released.
+    pub(crate) fn save(&self, py: Python<'_>, path: &Path) -> PyResult<()> {
+        let bytes = self.as_slice();
+        py.detach(|| kdray_tools::io::write_bytes(path, bytes))
+            .map_err(|e| PyOSError::new_err(e.to_string()))
+    }
+}
+
+/// A validated view over a blob's bytes: what every tree class opens from
+/// a buffer or a file, the validation run with the GIL released.
+pub(crate) trait Held: Sized + Send {
+    /// The alignment the view needs of bytes it borrows.
+    const ALIGN: usize;
+
+    /// Validates `bytes`.
+    fn new(bytes: Bytes) -> PyResult<Self>;
+
+    /// The blob of `buffer` (borrowed when read-only, C-contiguous and
+    /// aligned and `copy` is false; copied otherwise), validated.
+    fn from_buffer(buffer: &Bound<'_, PyAny>, copy: bool) -> PyResult<Self> {
+        let bytes = Bytes::from_buffer(buffer, Self::ALIGN, copy)?;
+        buffer.py().detach(|| Self::new(bytes))
+    }
+
+    /// A blob file, read and validated.
+    fn load(py: Python<'_>, path: &Path) -> PyResult<Self> {
+        let bytes = Bytes::read(py, path)?;
+        py.detach(|| Self::new(bytes))
+    }
 }
 
 /// `bytes` with the lifetime of the holder that owns them.
@@ -111,10 +151,14 @@ pub(crate) struct HeldTree {
     _bytes: Bytes,
 }
 
-impl HeldTree {
+impl Held for HeldTree {
+    /// A triangle tree's (the kernel checks 4; a `bytes` object's data is
+    /// 16-aligned).
+    const ALIGN: usize = 4;
+
     /// Validates `bytes` as a triangle tree ([`TriangleTree::from_bytes`])
     /// and writes its treelets (for scattered rays, as `kdray trace` does).
-    pub(crate) fn new(bytes: Bytes) -> PyResult<HeldTree> {
+    fn new(bytes: Bytes) -> PyResult<HeldTree> {
         // SAFETY: `bytes` moves into the returned value, which drops `tree`
         // first; its data stays where it is (see `extend`).
         let data = unsafe { extend(&bytes) };
@@ -134,7 +178,9 @@ impl HeldTree {
             _bytes: bytes,
         })
     }
+}
 
+impl HeldTree {
     /// The tree, with its treelets.
     pub(crate) fn tree(&self) -> &TreeletTree<'_> {
         &self.tree
@@ -153,15 +199,20 @@ pub(crate) struct HeldScene {
     bytes: Bytes,
 }
 
-impl HeldScene {
+impl Held for HeldScene {
+    /// A scene's: its meshes' (`MESH_ALIGN`).
+    const ALIGN: usize = kdray_kernel::MESH_ALIGN;
+
     /// Validates `bytes` as a scene blob ([`Scene::from_bytes`]).
-    pub(crate) fn new(bytes: Bytes) -> PyResult<HeldScene> {
+    fn new(bytes: Bytes) -> PyResult<HeldScene> {
         // SAFETY: as in `HeldTree::new`.
         let data = unsafe { extend(&bytes) };
         let scene = Scene::from_bytes(data).map_err(blob_error("scene"))?;
         Ok(HeldScene { scene, bytes })
     }
+}
 
+impl HeldScene {
     /// The scene.
     pub(crate) fn scene(&self) -> &Scene<'_> {
         &self.scene

@@ -5,7 +5,11 @@
 //! argument checks and scipy's and Open3D's conventions), releases the GIL,
 //! and runs the tools' batch paths on all cores.
 //!
-//! - [`triangles`]: `TriangleTree` (build, load, blobs, ray queries);
+//! - [`triangles`]: `TriangleTree` (build, load, blobs, ray and distance
+//!   queries);
+//! - [`distance`]: the distance queries' arguments and result arrays;
+//! - [`arrays`]: numpy rows read in place as the kernel's records, and
+//!   results handed back shaped;
 //! - [`scene`]: `Scene` (scene blobs of instanced meshes);
 //! - [`points`]: `PointTree` (build, load, k nearest and within-radius
 //!   queries for D = 1..16, `f32` or `f64`);
@@ -15,6 +19,8 @@
 
 use pyo3::prelude::*;
 
+mod arrays;
+mod distance;
 mod held;
 mod points;
 mod pools;

@@ -10,7 +10,7 @@ use kdray_tools::blob::write_point_tree;
 use kdray_tools::points::{build_points, PointParams};
 use numpy::PyUntypedArrayMethods;
 use numpy::{Element, PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
-use pyo3::exceptions::{PyOSError, PyValueError};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
 use std::path::PathBuf;
@@ -312,10 +312,7 @@ impl PointTree {
     /// Reads and validates a point blob file.
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<PointTree> {
-        let blob = py
-            .detach(|| kdray_tools::blob::Blob::read(&path))
-            .map_err(|e| PyOSError::new_err(format!("{}: {e}", path.display())))?;
-        PointTree::over(Bytes::Owned(blob))
+        PointTree::over(Bytes::read(py, &path)?)
     }
 
     /// The blob, as a `bytes` object.
@@ -325,9 +322,7 @@ impl PointTree {
 
     /// Writes the blob to `path` (the tools' atomic writer).
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
-        let bytes = self.bytes.as_slice();
-        py.detach(|| kdray_tools::io::write_bytes(&path, bytes))
-            .map_err(|e| PyOSError::new_err(e.to_string()))
+        self.bytes.save(py, &path)
     }
 
     /// D.

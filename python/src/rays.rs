@@ -6,10 +6,10 @@
 //! `tfar`), which is read in place; hits come back as the Open3D-named
 //! arrays, each allocated once.
 
+use crate::arrays::{rows, table};
 use crate::pools;
 use kdray_kernel::{Hit, Ray, Triangle};
-use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
-use pyo3::exceptions::PyValueError;
+use numpy::{PyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use rayon::prelude::*;
 
@@ -19,17 +19,7 @@ pub(crate) const SERIAL_MAX: usize = 1024;
 
 /// The rays of a `(N, 8)` C-contiguous `float32` array, in place.
 pub(crate) fn ray_slice<'a>(rays: &'a PyReadonlyArray2<'_, f32>) -> PyResult<&'a [Ray]> {
-    let shape = rays.shape();
-    if shape[1] != 8 {
-        return Err(PyValueError::new_err(format!(
-            "rays: expected shape (N, 8) in the kernel's layout, got {shape:?}"
-        )));
-    }
-    let floats = rays
-        .as_slice()
-        .map_err(|_| PyValueError::new_err("rays: expected a C-contiguous array"))?;
-    bytemuck::try_cast_slice(floats)
-        .map_err(|e| PyValueError::new_err(format!("rays: not in the ray layout: {e}")))
+    rows(rays, "rays", "(N, 8) in the kernel's layout")
 }
 
 /// The arrays of `cast_rays`: `t_hit`, `primitive_ids`, `primitive_uvs`
@@ -65,7 +55,6 @@ pub(crate) fn cast_arrays<'py>(
     nthreads: usize,
     normal_of: impl Fn(u32) -> [f32; 3] + Sync + Send,
 ) -> PyResult<CastArrays<'py>> {
-    let n = hits.len();
     let (t, ids, uvs, normals) = py.detach(|| {
         let t = map_all(hits, nthreads, |h| h.t)?;
         let ids = map_all(hits, nthreads, |h| h.prim)?;
@@ -79,17 +68,11 @@ pub(crate) fn cast_arrays<'py>(
         })?;
         Ok::<_, PyErr>((t, ids, uvs, normals))
     })?;
-    let uvs = PyArray1::from_vec(py, uvs.into_flattened())
-        .reshape([n, 2])?
-        .into_any();
-    let normals = PyArray1::from_vec(py, normals.into_flattened())
-        .reshape([n, 3])?
-        .into_any();
     Ok((
         PyArray1::from_vec(py, t),
         PyArray1::from_vec(py, ids),
-        uvs,
-        normals,
+        table(py, uvs)?,
+        table(py, normals)?,
     ))
 }
 

@@ -1,13 +1,13 @@
 //! `Scene`: a scene blob of instanced meshes (`kdray build --instances`)
 //! and its ray queries, each hit naming its instance (`geometry_ids`).
 
-use crate::held::{Bytes, HeldScene};
+use crate::arrays::table;
+use crate::held::{Held, HeldScene};
 use crate::pools;
 use crate::rays::{hit_lists, map_all, ray_slice, unit_normal};
 use kdray_kernel::{Instance, Scene as KernelScene, SceneHit, Triangle, MISS};
 use kdray_tools::instances::transform_point;
-use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2};
-use pyo3::exceptions::PyOSError;
+use numpy::{PyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use std::path::PathBuf;
 
@@ -63,7 +63,6 @@ fn cast_arrays<'py>(
     hits: &[SceneHit],
     nthreads: usize,
 ) -> PyResult<SceneCast<'py>> {
-    let n = hits.len();
     let geometry: Vec<u32> = hits
         .iter()
         .map(|h| if h.is_hit() { h.instance } else { MISS })
@@ -77,15 +76,13 @@ fn cast_arrays<'py>(
             }
         })
     })?;
-    let uvs: Vec<f32> = hits.iter().flat_map(|h| [h.u, h.v]).collect();
+    let uvs: Vec<[f32; 2]> = hits.iter().map(|h| [h.u, h.v]).collect();
     Ok((
         PyArray1::from_vec(py, hits.iter().map(|h| h.t).collect()),
         PyArray1::from_vec(py, geometry),
         PyArray1::from_vec(py, hits.iter().map(|h| h.prim).collect()),
-        PyArray1::from_vec(py, uvs).reshape([n, 2])?.into_any(),
-        PyArray1::from_vec(py, normals.into_flattened())
-            .reshape([n, 3])?
-            .into_any(),
+        table(py, uvs)?,
+        table(py, normals)?,
     ))
 }
 
@@ -95,15 +92,13 @@ fn hit_arrays<'py>(
     splits: Vec<u64>,
     hits: &[SceneHit],
 ) -> PyResult<SceneHits<'py>> {
-    let uvs: Vec<f32> = hits.iter().flat_map(|h| [h.u, h.v]).collect();
+    let uvs: Vec<[f32; 2]> = hits.iter().map(|h| [h.u, h.v]).collect();
     Ok((
         PyArray1::from_vec(py, splits),
         PyArray1::from_vec(py, hits.iter().map(|h| h.t).collect()),
         PyArray1::from_vec(py, hits.iter().map(|h| h.instance).collect()),
         PyArray1::from_vec(py, hits.iter().map(|h| h.prim).collect()),
-        PyArray1::from_vec(py, uvs)
-            .reshape([hits.len(), 2])?
-            .into_any(),
+        table(py, uvs)?,
     ))
 }
 
@@ -122,18 +117,14 @@ impl Scene {
     /// C-contiguous, 64-byte aligned and `copy` is false; copied otherwise).
     #[staticmethod]
     fn from_buffer(buffer: &Bound<'_, PyAny>, copy: bool) -> PyResult<Scene> {
-        let bytes = Bytes::from_buffer(buffer, kdray_kernel::MESH_ALIGN, copy)?;
-        let held = buffer.py().detach(|| HeldScene::new(bytes))?;
+        let held = HeldScene::from_buffer(buffer, copy)?;
         Ok(Scene { held })
     }
 
     /// Reads and validates a scene blob file.
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Scene> {
-        let blob = py
-            .detach(|| kdray_tools::blob::Blob::read(&path))
-            .map_err(|e| PyOSError::new_err(format!("{}: {e}", path.display())))?;
-        let held = py.detach(|| HeldScene::new(Bytes::Owned(blob)))?;
+        let held = HeldScene::load(py, &path)?;
         Ok(Scene { held })
     }
 
@@ -144,9 +135,7 @@ impl Scene {
 
     /// Writes the blob to `path` (the tools' atomic writer).
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
-        let bytes = self.held.bytes().as_slice();
-        py.detach(|| kdray_tools::io::write_bytes(&path, bytes))
-            .map_err(|e| PyOSError::new_err(e.to_string()))
+        self.held.bytes().save(py, &path)
     }
 
     /// How many instances.

@@ -1,21 +1,24 @@
 //! `TriangleTree`: a triangle k-d tree built from arrays or a mesh file,
-//! or loaded from a blob, and its ray queries on the tools' batch paths.
+//! or loaded from a blob, its ray queries on the tools' batch paths and
+//! its distance queries ([`crate::distance`]).
 
-use crate::held::{Bytes, HeldTree};
+use crate::arrays::table;
+use crate::distance::{self, answers, inside_rule, point_slice, ClosestArrays};
+use crate::held::{Bytes, Held, HeldTree};
 use crate::pools;
 use crate::rays::{cast_arrays, hit_lists, ray_slice, unit_normal, CastArrays, SERIAL_MAX};
-use kdray_kernel::{any_hit_brute, closest_hit_brute, first_hits_brute, Hit, Ray, Triangle};
+use kdray_kernel::{
+    any_hit_brute, closest_hit_brute, closest_point_brute, first_hits_brute, ClosestPoint, Hit,
+    Ray, Triangle, MISS,
+};
 use kdray_tools::blob::write_triangle_tree;
 use kdray_tools::builders::{build, BuildParams, BuilderKind};
+use kdray_tools::distance as tools;
 use kdray_tools::trace::{trace_into, trace_serial, Order, PacketWidth, Query};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
-use pyo3::exceptions::{PyOSError, PyValueError};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
-
-/// A blob's alignment for a triangle tree (the kernel checks 4; a
-/// `bytes` object's data is 16-aligned).
-pub(crate) const ALIGN: usize = 4;
 
 /// The builder's options as Python passes them (`None`: the default).
 #[derive(FromPyObject)]
@@ -83,7 +86,7 @@ fn build_blob(
             write_triangle_tree(&built, tris).map_err(|e| e.to_string())
         })
         .map_err(|e| PyValueError::new_err(format!("{what}: {e}")))?;
-    let bytes = Bytes::from_blob(py, blob, ALIGN);
+    let bytes = Bytes::from_blob(py, blob, HeldTree::ALIGN);
     let held = py.detach(|| HeldTree::new(bytes))?;
     Ok(TriangleTree { held })
 }
@@ -157,18 +160,14 @@ impl TriangleTree {
     /// and aligned and `copy` is false; copied otherwise).
     #[staticmethod]
     fn from_buffer(buffer: &Bound<'_, PyAny>, copy: bool) -> PyResult<TriangleTree> {
-        let bytes = Bytes::from_buffer(buffer, ALIGN, copy)?;
-        let held = buffer.py().detach(|| HeldTree::new(bytes))?;
+        let held = HeldTree::from_buffer(buffer, copy)?;
         Ok(TriangleTree { held })
     }
 
     /// Reads and validates a blob file.
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<TriangleTree> {
-        let blob = py
-            .detach(|| kdray_tools::blob::Blob::read(&path))
-            .map_err(|e| PyOSError::new_err(format!("{}: {e}", path.display())))?;
-        let held = py.detach(|| HeldTree::new(Bytes::Owned(blob)))?;
+        let held = HeldTree::load(py, &path)?;
         Ok(TriangleTree { held })
     }
 
@@ -180,9 +179,7 @@ impl TriangleTree {
     /// Writes the blob to `path` (the tools' writer: a temporary file
     /// renamed into place).
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
-        let bytes = self.held.bytes().as_slice();
-        py.detach(|| kdray_tools::io::write_bytes(&path, bytes))
-            .map_err(|e| PyOSError::new_err(e.to_string()))
+        self.held.bytes().save(py, &path)
     }
 
     /// The triangles, `(F, 3, 3)` float32, in mesh order.
@@ -270,6 +267,104 @@ impl TriangleTree {
         hit_arrays(py, lists.splits, &lists.hits)
     }
 
+    /// The closest point of each query: `(points, primitive_ids,
+    /// primitive_uvs, primitive_normals)`.
+    fn closest_points<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f32>,
+        nthreads: usize,
+    ) -> PyResult<ClosestArrays<'py>> {
+        let queries = point_slice(&points)?;
+        distance::closest_points(py, &self.held.tree().tree(), queries, nthreads)
+    }
+
+    /// The distance of each query to the mesh (NaN for a query with a NaN
+    /// or infinite coordinate).
+    fn distances<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f32>,
+        nthreads: usize,
+    ) -> PyResult<Bound<'py, PyArray1<f32>>> {
+        let tree = self.held.tree().tree();
+        answers(py, &tree, &points, nthreads, 0.0, tools::distances)
+    }
+
+    /// The signed distance of each query: negative inside by the rule of
+    /// `nsamples` (1: one ray's parity; 3, 5, 7: their majority).
+    fn signed_distances<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f32>,
+        nthreads: usize,
+        nsamples: u32,
+    ) -> PyResult<Bound<'py, PyArray1<f32>>> {
+        let rule = inside_rule(nsamples)?;
+        let tree = self.held.tree().tree();
+        answers(py, &tree, &points, nthreads, 0.0, |t, q, out| {
+            tools::signed_distances(t, q, rule, out);
+        })
+    }
+
+    /// Whether each query is inside by the rule of `nsamples`.
+    fn occupancy<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f32>,
+        nthreads: usize,
+        nsamples: u32,
+    ) -> PyResult<Bound<'py, PyArray1<bool>>> {
+        let rule = inside_rule(nsamples)?;
+        let tree = self.held.tree().tree();
+        answers(py, &tree, &points, nthreads, false, |t, q, out| {
+            tools::occupancy(t, q, rule, out);
+        })
+    }
+
+    /// The oracle of `closest_points`: every triangle tested
+    /// ([`closest_point_brute`]), as `(points, primitive_ids,
+    /// primitive_uvs, squared distances)`, for tests.
+    fn closest_points_brute<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f32>,
+    ) -> PyResult<ClosestBrute<'py>> {
+        let queries = point_slice(&points)?;
+        let tris = self.held.tree().tree().triangles();
+        let found: Vec<Option<ClosestPoint>> = py.detach(|| {
+            queries
+                .iter()
+                .map(|q| closest_point_brute(tris, *q, f32::INFINITY))
+                .collect()
+        });
+        let none = [f32::NAN; 3];
+        Ok((
+            table(
+                py,
+                found.iter().map(|c| c.map_or(none, |c| c.point)).collect(),
+            )?,
+            PyArray1::from_vec(
+                py,
+                found.iter().map(|c| c.map_or(MISS, |c| c.prim)).collect(),
+            ),
+            table(
+                py,
+                found
+                    .iter()
+                    .map(|c| c.map_or([f32::NAN; 2], |c| [c.u, c.v]))
+                    .collect(),
+            )?,
+            PyArray1::from_vec(
+                py,
+                found
+                    .iter()
+                    .map(|c| c.map_or(f64::NAN, |c| c.distance2))
+                    .collect(),
+            ),
+        ))
+    }
+
     /// The oracle of `cast`: every triangle tested
     /// ([`closest_hit_brute`]), for tests.
     fn cast_brute<'py>(
@@ -315,6 +410,15 @@ impl TriangleTree {
     }
 }
 
+/// `(points, primitive_ids, primitive_uvs, distance2)` of
+/// `closest_points_brute`.
+type ClosestBrute<'py> = (
+    Bound<'py, PyAny>,
+    Bound<'py, PyArray1<u32>>,
+    Bound<'py, PyAny>,
+    Bound<'py, PyArray1<f64>>,
+);
+
 /// `(ray_splits, t_hit, primitive_ids, primitive_uvs)` of `hits`.
 pub(crate) type HitArrays<'py> = (
     Bound<'py, PyArray1<u64>>,
@@ -327,14 +431,11 @@ pub(crate) type HitArrays<'py> = (
 fn hit_arrays<'py>(py: Python<'py>, splits: Vec<u64>, hits: &[Hit]) -> PyResult<HitArrays<'py>> {
     let t: Vec<f32> = hits.iter().map(|h| h.t).collect();
     let ids: Vec<u32> = hits.iter().map(|h| h.prim).collect();
-    let uvs: Vec<f32> = hits.iter().flat_map(|h| [h.u, h.v]).collect();
-    let uvs = PyArray1::from_vec(py, uvs)
-        .reshape([hits.len(), 2])?
-        .into_any();
+    let uvs: Vec<[f32; 2]> = hits.iter().map(|h| [h.u, h.v]).collect();
     Ok((
         PyArray1::from_vec(py, splits),
         PyArray1::from_vec(py, t),
         PyArray1::from_vec(py, ids),
-        uvs,
+        table(py, uvs)?,
     ))
 }

@@ -31,11 +31,32 @@ def check(tree: kdray.TriangleTree, rays: np.ndarray, kd_tree: kdray.KDTree, x: 
     for k in want:
         assert got[k].dtype == want[k].dtype and got[k].shape == want[k].shape, k
         np.testing.assert_array_equal(got[k].view(np.uint32), want[k].view(np.uint32), err_msg=k)
+    check_distances(tree, rays[:, :3] * np.float32(0.7))
     for k in (1, 4):
         d, i = dask.compute(*kd.query(kd_tree, da.from_array(x, chunks=(1500, 3)), k=k))
         wd, wi = kd_tree.query(x, k=k)
         np.testing.assert_array_equal(d, wd)
         np.testing.assert_array_equal(i, wi)
+
+
+def check_distances(tree: kdray.TriangleTree, q: np.ndarray) -> None:
+    dq = da.from_array(q, chunks=(3000, 3))
+    cp = kd.compute_closest_points(tree, dq)
+    got = dict(zip(cp, dask.compute(*cp.values())))
+    want = tree.compute_closest_points(q)
+    assert got.keys() == want.keys()
+    for k in want:
+        assert got[k].dtype == want[k].dtype and got[k].shape == want[k].shape, k
+        np.testing.assert_array_equal(got[k].view(np.uint32), want[k].view(np.uint32), err_msg=k)
+    for name, kwargs in (
+        ("compute_distance", {}),
+        ("compute_signed_distance", {"nsamples": 3}),
+        ("compute_occupancy", {"nsamples": 1}),
+    ):
+        g = getattr(kd, name)(tree, dq, **kwargs).compute()
+        w = getattr(tree, name)(q, **kwargs)
+        assert g.dtype == w.dtype == np.float32 and g.shape == w.shape, name
+        np.testing.assert_array_equal(g.view(np.uint32), w.view(np.uint32), err_msg=name)
 
 
 def test_local_scheduler() -> None:
@@ -62,3 +83,9 @@ def test_wrong_arrays_are_refused() -> None:
         kd.cast_rays(kd_tree, da.zeros((10, 6)))  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="x"):
         kd.query(kd_tree, da.zeros((10, 4)))
+    with pytest.raises(ValueError, match="query_points"):
+        kd.compute_distance(tree, da.zeros((10, 6)))
+    with pytest.raises(TypeError, match="tree"):
+        kd.compute_closest_points(kd_tree, da.zeros((10, 3)))  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="nsamples"):
+        kd.compute_occupancy(tree, da.zeros((10, 3)), nsamples=4)

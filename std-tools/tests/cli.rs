@@ -821,7 +821,7 @@ fn rays_makes_files_the_other_commands_read() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stdout(&o).contains("on 1 thread,"), "{}", stdout(&o));
 
-    // sort-rays: the same records in another order, in place too.
+    // sort-rays: the same records in another order.
     let random = file("random");
     let sorted = tmp("rays-sorted.rays");
     let o = kdray(&[
@@ -837,9 +837,6 @@ fn rays_makes_files_the_other_commands_read() {
     b.sort();
     assert_eq!(a, b, "the same rays in another order");
     let s = sorted.display().to_string();
-    let again = kdray(&["sort-rays", &s, "-o", &s]);
-    assert!(again.status.success(), "{}", stderr(&again));
-    assert_eq!(records(&sorted).len(), 77);
     let junk = write(&tmp("rays-junk.rays"), &[0u8; 33]);
     let o = kdray(&["sort-rays", &junk, "-o", &s]);
     assert_eq!(o.status.code(), Some(1));
@@ -1149,6 +1146,9 @@ fn an_output_over_an_input_is_refused() {
         &ray_bytes(&[[0.25, 0.75, 2.0, 0.0, 0.0, 0.0, -1.0, f32::INFINITY]]),
     );
     let pts = write(&dir.join("p.pts"), &[0u8; 12 * 4]);
+    let (gltf, bin) = quad_gltf_with_buffer_file(&dir);
+    let gltf_tree = dir.join("gltf.kdt").display().to_string();
+    assert!(kdray(&["build", &gltf, "-o", &gltf_tree]).status.success());
     let mut names = vec![obj.clone(), rays.clone(), tree.clone(), pts.clone()];
     #[cfg(unix)]
     {
@@ -1161,6 +1161,7 @@ fn an_output_over_an_input_is_refused() {
         names.push(link.display().to_string());
         names.push(hard.display().to_string());
     }
+    names.push(bin.clone());
     let before: Vec<Vec<u8>> = names.iter().map(|n| std::fs::read(n).unwrap()).collect();
     let link_obj = names.get(4).cloned().unwrap_or(obj.clone());
     let hard_rays = names.get(5).cloned().unwrap_or(rays.clone());
@@ -1175,6 +1176,13 @@ fn an_output_over_an_input_is_refused() {
         (vec!["export-obj", &obj, "-o", &obj], &obj),
         (vec!["build-points", &pts, "-o", &pts], &pts),
         (vec!["knn", &pts, &pts, "-o", &pts], &pts),
+        (vec!["sort-rays", &rays, "-o", &rays], &rays),
+        (vec!["sort-rays", &rays, "-o", &hard_rays], &rays),
+        // A glTF's external buffer is an input too.
+        (vec!["build", &gltf, "-o", &bin], &bin),
+        (vec!["render", &gltf, "-o", &bin], &bin),
+        (vec!["rays", &gltf, "-o", &bin], &bin),
+        (vec!["export-obj", &gltf, "-o", &bin], &bin),
     ];
     for (args, input) in cases {
         let o = kdray(&args);
@@ -1187,6 +1195,22 @@ fn an_output_over_an_input_is_refused() {
     }
     let after: Vec<Vec<u8>> = names.iter().map(|n| std::fs::read(n).unwrap()).collect();
     assert!(before == after, "an input changed");
+}
+
+/// [`quad_gltf`] with its buffer in the file `quad.bin` beside it, in
+/// `dir`: the glTF's path and the buffer's.
+fn quad_gltf_with_buffer_file(dir: &Path) -> (String, String) {
+    use base64::Engine as _;
+    let text = String::from_utf8(quad_gltf()).unwrap();
+    let start = text.find("data:").unwrap();
+    let end = start + text[start..].find('"').unwrap();
+    let payload = text[start..end].split_once(";base64,").unwrap().1;
+    let bytes = base64::engine::general_purpose::STANDARD
+        .decode(payload)
+        .unwrap();
+    let bin = write(&dir.join("quad.bin"), &bytes);
+    let text = format!("{}quad.bin{}", &text[..start], &text[end..]);
+    (write(&dir.join("quad.gltf"), text.as_bytes()), bin)
 }
 
 /// A glTF (buffer in a data: URI) whose mesh, the unit quad in z = 0, two

@@ -57,7 +57,7 @@ pub(crate) struct Args {
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
-    io::check_output_apart(&a.output, &[&a.scene])?;
+    super::check_apart_from_mesh(&a.output, &a.scene)?;
     a.view.check()?;
     if a.count == 0 || a.count as u64 > MAX_PIXELS {
         return Err(format!(

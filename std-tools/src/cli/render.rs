@@ -129,7 +129,7 @@ pub(super) fn tree_blob(
 
 pub(crate) fn run(a: &Args) -> CmdResult {
     // Every argument is checked before the scene is loaded or built.
-    io::check_output_apart(&a.output, &[&a.input])?;
+    super::check_apart_from_mesh(&a.output, &a.input)?;
     a.view.check()?;
     let pool = thread_pool(a.threads)?;
     let blob = tree_blob(&a.input, a.mesh_args)?;

@@ -63,13 +63,21 @@ impl Camera {
     /// (row 0 at the top).
     #[must_use]
     pub fn ray(&self, x: u32, y: u32, w: u32, h: u32) -> Ray {
+        self.ray_at(x as f32 + 0.5, y as f32 + 0.5, w, h)
+    }
+
+    /// The ray through the point `(px, py)` of a `w` x `h` image, in
+    /// pixels from its top left corner (`(x + 0.5, y + 0.5)` is pixel
+    /// `(x, y)`'s centre): a supersampled picture's sub-pixel rays.
+    #[must_use]
+    pub fn ray_at(&self, px: f32, py: f32, w: u32, h: u32) -> Ray {
         let fwd = (self.target - self.eye).normalize_or(Vec3::NEG_Z);
         let right = fwd.cross(self.up).normalize_or(Vec3::X);
         let up = right.cross(fwd);
         let half = (self.fov_deg.to_radians() * 0.5).tan();
         let aspect = w as f32 / h.max(1) as f32;
-        let sx = ((x as f32 + 0.5) / w as f32 * 2.0 - 1.0) * half * aspect;
-        let sy = (1.0 - (y as f32 + 0.5) / h as f32 * 2.0) * half;
+        let sx = (px / w as f32 * 2.0 - 1.0) * half * aspect;
+        let sy = (1.0 - py / h as f32 * 2.0) * half;
         Ray::new(self.eye, fwd + sx * right + sy * up)
     }
 

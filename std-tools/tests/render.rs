@@ -34,10 +34,24 @@ fn floor_and_tetrahedron() -> Vec<Triangle> {
 /// Renders `tris` seen by `camera` with the tree at every packet width and
 /// by brute force, and checks all four pictures are the same.
 fn check_tree_matches_brute(tris: &[Triangle], camera: Camera, w: u32, h: u32) -> Image {
+    check_tree_matches_brute_sampled(tris, camera, w, h, 1)
+}
+
+/// [`check_tree_matches_brute`] with `samples` rays a pixel.
+fn check_tree_matches_brute_sampled(
+    tris: &[Triangle],
+    camera: Camera,
+    w: u32,
+    h: u32,
+    samples: u32,
+) -> Image {
     let built = build(tris, BuilderKind::default(), &BuildParams::default()).unwrap();
     let blob = write_triangle_tree(&built, tris).unwrap();
     let tree = blob.tree().unwrap();
-    let params = RenderParams::new(camera, w, h);
+    let params = RenderParams {
+        samples,
+        ..RenderParams::new(camera, w, h)
+    };
     let brute = render(&BruteTracer(tris), &params, &|| ());
     assert_eq!((brute.width, brute.height), (w, h));
     for width in [
@@ -85,6 +99,77 @@ fn small_scene_tree_equals_brute_force_pixel_for_pixel() {
 fn built_in_scene_tree_equals_brute_force_pixel_for_pixel() {
     let scene = teapot_in_stadium();
     check_tree_matches_brute(&scene.triangles, Camera::framing(&scene.focus), 37, 27);
+    check_tree_matches_brute_sampled(&scene.triangles, Camera::framing(&scene.focus), 19, 13, 4);
+}
+
+/// A UV sphere of radius 1 at the origin: `rings` x `sides` quads.
+fn sphere(rings: usize, sides: usize) -> Vec<Triangle> {
+    use std::f32::consts::{PI, TAU};
+    let p = |r: usize, s: usize| {
+        let th = r as f32 / rings as f32 * PI;
+        let ph = (s % sides) as f32 / sides as f32 * TAU;
+        [th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()]
+    };
+    let mut tris = Vec::new();
+    for r in 0..rings {
+        for s in 0..sides {
+            let (a, b, c, d) = (p(r, s), p(r, s + 1), p(r + 1, s + 1), p(r + 1, s));
+            tris.push(Triangle { v: [a, b, c] });
+            tris.push(Triangle { v: [a, c, d] });
+        }
+    }
+    tris
+}
+
+/// The camera looking at the unit sphere from +z.
+fn sphere_camera() -> Camera {
+    Camera {
+        eye: Vec3::new(0.0, 0.0, 4.0),
+        target: Vec3::ZERO,
+        up: Vec3::Y,
+        fov_deg: 35.0,
+    }
+}
+
+#[test]
+fn a_coarse_sphere_shades_smooth() {
+    // 8 x 16 facets: flat shading gives each visible facet one colour,
+    // lit or in shadow (113 colours); interpolated normals vary within
+    // every facet (300).
+    let tris = sphere(8, 16);
+    let img = check_tree_matches_brute(&tris, sphere_camera(), 64, 64);
+    let distinct: std::collections::BTreeSet<_> =
+        img.pixels.iter().filter(|&&p| p != BACKGROUND).collect();
+    assert!(distinct.len() > 200, "{} colours", distinct.len());
+}
+
+#[test]
+fn supersampling_blends_edges_and_is_deterministic() {
+    let tris = floor_and_tetrahedron();
+    let camera = Camera {
+        eye: Vec3::new(0.3, 3.0, 4.0),
+        target: Vec3::new(0.0, 0.3, 0.0),
+        up: Vec3::Y,
+        fov_deg: 45.0,
+    };
+    let one = check_tree_matches_brute_sampled(&tris, camera, 45, 33, 1);
+    let many = check_tree_matches_brute_sampled(&tris, camera, 45, 33, 16);
+    assert_eq!(
+        many,
+        check_tree_matches_brute_sampled(&tris, camera, 45, 33, 16)
+    );
+    // Where the floor's edge meets the background, 16 samples mix the two:
+    // colours that are neither, darker than the floor's and not the
+    // background, where one sample a pixel has only the two.
+    let background = |i: &Image| i.pixels.iter().filter(|&&p| p == BACKGROUND).count();
+    let mixed = |i: &Image| {
+        i.pixels
+            .iter()
+            .filter(|p| p.iter().zip(BACKGROUND).all(|(&c, b)| c.abs_diff(b) > 3) && p[0] < 120)
+            .count()
+    };
+    assert!(background(&many) > 0 && background(&many) <= background(&one));
+    assert!(mixed(&many) > mixed(&one) + 20, "{} {}", mixed(&many), mixed(&one));
 }
 
 #[test]

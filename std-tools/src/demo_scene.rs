@@ -163,6 +163,10 @@ mod tests {
         assert_eq!((all.min, all.max), ([-100.0, 0.0, -100.0], [100.0; 3]));
         // Deterministic: the same bits on every call.
         let again = teapot_in_stadium();
-        assert!(s.triangles.iter().zip(&again.triangles).all(|(a, b)| a.v == b.v));
+        assert!(s
+            .triangles
+            .iter()
+            .zip(&again.triangles)
+            .all(|(a, b)| a.v == b.v));
     }
 }

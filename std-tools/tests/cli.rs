@@ -395,6 +395,61 @@ fn render_writes_pictures_and_refuses_bad_flags() {
     let o = kdray(&["render", &obj, "-o", &png, "--packet", "3"]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("1, 4, 8 or 16"), "{}", stderr(&o));
+    for (samples, says) in [
+        ("0", "between 1 and 64 rays a pixel, not 0"),
+        ("65", "between 1 and 64 rays a pixel, not 65"),
+    ] {
+        let o = kdray(&["render", &obj, "-o", &png, "--samples", samples]);
+        assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+        assert!(stderr(&o).contains(says), "{}", stderr(&o));
+    }
+    // A heatmap is the picture asked for with the legend strip under it,
+    // as --help says.
+    let o = kdray(&[
+        "render",
+        &obj,
+        "-o",
+        &png,
+        "--width",
+        "33",
+        "--height",
+        "17",
+        "--heatmap",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let legend = kdray_tools::render::LEGEND_HEIGHT;
+    let bytes = std::fs::read(&png).unwrap();
+    let size = |at: usize| u32::from_be_bytes(bytes[at..at + 4].try_into().unwrap());
+    assert_eq!((size(16), size(20)), (33, 17 + legend), "the PNG's IHDR");
+    assert!(
+        stdout(&o).contains(&format!(
+            "the legend adds {legend} rows under the 33x17 picture"
+        )),
+        "{}",
+        stdout(&o)
+    );
+    let help = stdout(&kdray(&["render", "--help"]));
+    assert!(
+        help.contains(&format!("{legend} pixels taller than --height")),
+        "{help}"
+    );
+    let o = kdray(&["render", &obj, "-o", &png, "--samples", "4", "--heatmap"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("one ray a pixel"), "{}", stderr(&o));
+    let o = kdray(&[
+        "render",
+        &obj,
+        "-o",
+        &png,
+        "--width",
+        "9",
+        "--height",
+        "7",
+        "--samples",
+        "4",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("4 rays a pixel"), "{}", stdout(&o));
     let o = kdray(&["render", &obj, "-o", &png, "--eye", "1,2"]);
     assert!(stderr(&o).contains("x,y,z"), "{}", stderr(&o));
     let bad = write(&tmp("bad.kdt"), b"not a tree");

@@ -169,7 +169,12 @@ fn supersampling_blends_edges_and_is_deterministic() {
             .count()
     };
     assert!(background(&many) > 0 && background(&many) <= background(&one));
-    assert!(mixed(&many) > mixed(&one) + 20, "{} {}", mixed(&many), mixed(&one));
+    assert!(
+        mixed(&many) > mixed(&one) + 20,
+        "{} {}",
+        mixed(&many),
+        mixed(&one)
+    );
 }
 
 #[test]

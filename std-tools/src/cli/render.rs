@@ -11,7 +11,7 @@ use kdray_tools::builders::{build, BuildParams, BuilderKind};
 use kdray_tools::camera::Camera;
 use kdray_tools::instances::SceneTracer;
 use kdray_tools::render::{
-    bands, render, render_heatmap, RenderParams, TreeTracer, MAX_SAMPLES,
+    bands, render, render_heatmap, RenderParams, TreeTracer, LEGEND_HEIGHT, MAX_SAMPLES,
 };
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -28,8 +28,10 @@ pub(crate) struct Args {
     #[command(flatten)]
     view: View,
     /// Render the traversal cost per pixel (nodes visited + triangles
-    /// tested, single rays) instead of the shaded picture. The PNG is 32
-    /// pixels taller than --height: the legend strip under the image.
+    /// tested by the closest-hit walk of the ray through the pixel's
+    /// centre, on a log scale) instead of the shaded picture. The PNG is
+    /// 46 pixels taller than --height: the legend strip under the picture
+    /// (whose rays are the shaded picture's).
     #[arg(long)]
     heatmap: bool,
     /// Rays per packet: 1, 4 (2x2 pixel tiles), 8 (4x2 tiles) or 16 (4x4
@@ -185,7 +187,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         let h = pool.install(|| render_heatmap(&tree, &params, &|| bar.inc(1)));
         bar.finish();
         say!(
-            "cost per pixel (nodes visited + triangles tested): min {}, mean {:.1}, max {}",
+            "cost per pixel (nodes visited + triangles tested): min {}, mean {:.1}, max {}; the legend adds {LEGEND_HEIGHT} rows under the {width}x{height} picture",
             h.min,
             h.mean,
             h.max

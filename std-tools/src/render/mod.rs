@@ -153,9 +153,10 @@ fn shade_tile(
         .offsets
         .iter()
         .flat_map(|&[ox, oy]| {
-            coords
-                .iter()
-                .map(move |&[x, y]| p.camera.ray_at(x as f32 + ox, y as f32 + oy, p.width, p.height))
+            coords.iter().map(move |&[x, y]| {
+                p.camera
+                    .ray_at(x as f32 + ox, y as f32 + oy, p.width, p.height)
+            })
         })
         .collect();
     let mut hits = vec![Hit::MISS; rays.len()];
@@ -329,12 +330,20 @@ mod tests {
         assert_eq!(sample_offsets(1), vec![[0.5, 0.5]]);
         assert_eq!(
             sample_offsets(4),
-            vec![[0.125, 0.125], [0.375, 0.625], [0.625, 0.375], [0.875, 0.875]]
+            vec![
+                [0.125, 0.125],
+                [0.375, 0.625],
+                [0.625, 0.375],
+                [0.875, 0.875]
+            ]
         );
         for n in [2, 3, 16, 64] {
             let s = sample_offsets(n);
             assert_eq!(s.len(), n as usize);
-            assert!(s.iter().flatten().all(|&c| (0.0..1.0).contains(&c)), "{s:?}");
+            assert!(
+                s.iter().flatten().all(|&c| (0.0..1.0).contains(&c)),
+                "{s:?}"
+            );
             // One sample in each of n columns and each of n rows.
             for axis in 0..2 {
                 let mut cells: Vec<u32> = s.iter().map(|p| (p[axis] * n as f32) as u32).collect();

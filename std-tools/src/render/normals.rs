@@ -118,19 +118,17 @@ mod tests {
     use std::f32::consts::{PI, TAU};
 
     fn hit(prim: u32, u: f32, v: f32) -> Hit {
-        Hit {
-            t: 1.0,
-            prim,
-            u,
-            v,
-        }
+        Hit { t: 1.0, prim, u, v }
     }
 
     /// A UV sphere of radius 1: `rings` x `sides` quads, two triangles
     /// each (the pole rows' slivers too, with no area).
     fn sphere(rings: usize, sides: usize) -> Vec<Triangle> {
         let p = |r: usize, s: usize| {
-            let (th, ph) = (r as f32 / rings as f32 * PI, (s % sides) as f32 / sides as f32 * TAU);
+            let (th, ph) = (
+                r as f32 / rings as f32 * PI,
+                (s % sides) as f32 / sides as f32 * TAU,
+            );
             match r {
                 // The poles one point each (sin(PI) is not 0 in f32).
                 0 => [0.0, 1.0, 0.0],
@@ -175,7 +173,10 @@ mod tests {
             }
         }
         // Inside a triangle the normal turns, where the face normal is flat.
-        let (a, b) = (normals.at(&hit(241, 0.1, 0.1)), normals.at(&hit(241, 0.8, 0.1)));
+        let (a, b) = (
+            normals.at(&hit(241, 0.1, 0.1)),
+            normals.at(&hit(241, 0.8, 0.1)),
+        );
         assert!(a.unwrap().dot(b.unwrap()) < 0.9999, "{a:?} {b:?}");
     }
 

@@ -1354,6 +1354,14 @@ fn every_blob_kind_is_read_or_named() {
             vec!["render", &cloud, "-o", &png],
             "this is a point tree; `kdray render` takes a mesh, a triangle tree or a scene",
         ),
+        (
+            vec!["render", &scene, "-o", &png, "--camera", "inside"],
+            "--camera inside probes one tree: render the flattened scene",
+        ),
+        (
+            vec!["rays", &scene, "-o", &rays, "--camera", "inside"],
+            "--camera inside probes one tree: render the flattened scene",
+        ),
     ];
     for (args, want) in cases {
         let o = kdray(&args);

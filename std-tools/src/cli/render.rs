@@ -5,10 +5,10 @@ use super::progress::counted_bar;
 use super::trace::parse_width;
 use super::{check_image, plural, thread_pool, wrong_kind, CmdResult, MeshArgs};
 use glam::Vec3;
-use kdray_kernel::{Bounds, PacketWidth};
+use kdray_kernel::{Bounds, PacketWidth, TriangleTree};
 use kdray_tools::blob::{write_triangle_tree, Blob, BlobKind};
 use kdray_tools::builders::{build, BuildParams, BuilderKind};
-use kdray_tools::camera::Camera;
+use kdray_tools::camera::{probe_tree, Camera, Placement};
 use kdray_tools::instances::SceneTracer;
 use kdray_tools::render::{
     bands, render, render_heatmap, RenderParams, TreeTracer, LEGEND_HEIGHT, MAX_SAMPLES,
@@ -62,6 +62,17 @@ fn parse_vec3(s: &str) -> Result<Vec3, String> {
     }
 }
 
+/// `--camera`: [`Placement`] by name.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum CameraArg {
+    /// Inside when the scene encloses its bounds' centre, else outside.
+    Auto,
+    /// Framing the whole scene from outside.
+    Outside,
+    /// Inside the scene.
+    Inside,
+}
+
 /// The camera and image size, for `render` and `rays` alike.
 #[derive(clap::Args, Debug)]
 pub(super) struct View {
@@ -74,6 +85,14 @@ pub(super) struct View {
     /// Vertical field of view in degrees.
     #[arg(long, allow_negative_numbers = true)]
     fov: Option<f32>,
+    /// Where the camera stands without --eye: `outside` framing the whole
+    /// scene, `inside` it (at the centre, stepped back along its longer
+    /// side: rooms, courtyards), or `auto`: inside when the scene
+    /// encloses its bounds' centre (most rays from there hit the front of
+    /// a triangle), else outside. Meshes and triangle trees; a scene
+    /// blob is framed from outside.
+    #[arg(long, value_enum, default_value_t = CameraArg::Auto)]
+    camera: CameraArg,
     /// Image width in pixels.
     #[arg(long, default_value_t = 640)]
     pub(super) width: u32,
@@ -104,16 +123,37 @@ impl View {
         }
     }
 
-    /// The camera framing `scene`, with the user's eye, target and field
-    /// of view where given.
-    pub(super) fn camera(&self, scene: &Bounds) -> Camera {
-        let framing = Camera::framing(scene);
-        Camera {
+    /// The camera over `scene` (bounds) placed as --camera says, probing
+    /// `tree` (`None` for a scene blob: framed from outside), with the
+    /// user's eye, target and field of view where given (an eye given
+    /// frames from outside for what is not).
+    pub(super) fn camera(
+        &self,
+        scene: &Bounds,
+        tree: Option<&TriangleTree<'_>>,
+    ) -> Result<Camera, String> {
+        let placement = match self.camera {
+            _ if self.eye.is_some() => Placement::Outside,
+            CameraArg::Outside => Placement::Outside,
+            CameraArg::Inside if tree.is_none() => {
+                return Err(
+                    "--camera inside probes one tree: render the flattened scene (kdray build without --instances), or give --eye"
+                        .into(),
+                )
+            }
+            CameraArg::Inside => Placement::Inside,
+            CameraArg::Auto => Placement::Auto,
+        };
+        let framing = match tree {
+            Some(tree) => Camera::placed(scene, placement, |r| probe_tree(tree, r)),
+            None => Camera::framing(scene),
+        };
+        Ok(Camera {
             eye: self.eye.unwrap_or(framing.eye),
             target: self.target.unwrap_or(framing.target),
             fov_deg: self.fov.unwrap_or(framing.fov_deg),
             ..framing
-        }
+        })
     }
 }
 
@@ -175,7 +215,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         .tree()
         .map_err(|e| format!("{}: invalid tree blob: {e}", a.input.display()))?;
     let scene = tree.bounds();
-    let camera = a.view.camera(&scene);
+    let camera = a.view.camera(&scene, Some(&tree))?;
     let (width, height) = (a.view.width, a.view.height);
     let params = RenderParams {
         samples: a.samples,
@@ -239,7 +279,7 @@ fn render_scene(a: &Args, pool: &rayon::ThreadPool, blob: &Blob) -> CmdResult {
     let scene = blob
         .scene()
         .map_err(|e| format!("{}: invalid scene blob: {e}", a.input.display()))?;
-    let camera = a.view.camera(&scene.bounds());
+    let camera = a.view.camera(&scene.bounds(), None)?;
     let (width, height) = (a.view.width, a.view.height);
     let params = RenderParams {
         samples: a.samples,

@@ -40,6 +40,7 @@ fn glyph(ch: char) -> Option<[u8; 5]> {
 }
 
 /// Whether every character of `text` has a glyph (a space is a gap).
+#[cfg(test)]
 pub(crate) fn can_draw(text: &str) -> bool {
     text.chars().all(|c| c == ' ' || glyph(c).is_some())
 }

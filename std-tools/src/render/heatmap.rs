@@ -8,7 +8,7 @@
 //! strip adds [`LEGEND_HEIGHT`] rows: the picture above it is the size
 //! asked, its rays the same as a shaded picture's.
 
-use super::font::{can_draw, draw_text, text_width, HEIGHT as FONT_HEIGHT};
+use super::font::{draw_text, text_width, HEIGHT as FONT_HEIGHT};
 use super::{in_tiles, Image, RenderParams, BACKGROUND};
 use kdray_kernel::TriangleTree;
 
@@ -164,6 +164,7 @@ fn caption(width: u32) -> Option<&'static str> {
 
 #[cfg(test)]
 mod tests {
+    use super::super::font::can_draw;
     use super::*;
 
     #[test]

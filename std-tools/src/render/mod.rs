@@ -81,8 +81,9 @@ impl RenderParams {
 pub const BACKGROUND: [u8; 3] = [28, 32, 44];
 /// Light every surface gets, lit or not.
 const AMBIENT: f32 = 0.12;
-/// The fraction of direct light a shadowed surface keeps (so shapes in
-/// shadow still read).
+/// The part of the light that only follows the view (so shapes in shadow
+/// still read); the rest comes from the point light, by the cosine of
+/// the shading normal with the way to it, where the shadow ray is clear.
 const IN_SHADOW: f32 = 0.35;
 /// The surface colour (linear RGB).
 const ALBEDO: [f32; 3] = [0.95, 0.82, 0.62];
@@ -175,7 +176,7 @@ fn shade_tile(
         .map(|s| {
             let s = s.as_ref()?;
             let lit = s.shadow.is_some() && shadows.next() == Some(false);
-            let direct = if lit { 1.0 } else { IN_SHADOW };
+            let direct = IN_SHADOW + (1.0 - IN_SHADOW) * if lit { s.diffuse } else { 0.0 };
             Some(shade(AMBIENT + (1.0 - AMBIENT) * s.facing * direct))
         })
         .collect();
@@ -240,6 +241,11 @@ struct Surface {
     /// The ray to the light, when the light is on the viewer's side of
     /// the triangle's plane.
     shadow: Option<Ray>,
+    /// The cosine of the angle between the shading normal and the way to
+    /// the light, at least 0: near the line where the facets turn from
+    /// the light it is near 0 on both sides, so that line does not show
+    /// the facets' steps.
+    diffuse: f32,
 }
 
 impl Surface {
@@ -269,6 +275,7 @@ impl Surface {
         Some(Surface {
             facing: (-s.dot(view)).max(0.0),
             shadow,
+            diffuse: s.dot(to_light.normalize_or_zero()).max(0.0),
         })
     }
 }

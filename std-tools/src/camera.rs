@@ -87,9 +87,9 @@ impl Camera {
     /// horizontal line through the centre along the box's longer side,
     /// looking at the farther wall (a wall rather than an open side),
     /// stepped back 80% of the free distance behind (out through an open
-    /// side, as a Cornell box is seen), with a 75-degree field of view. The target (whose
-    /// distance places [`RenderParams::new`](crate::render::RenderParams::new)'s
-    /// light above and to the left of the eye) is close enough that the
+    /// side, as a Cornell box is seen), with a 75-degree field of view.
+    /// The renderer puts its light above and to the left of the eye, as
+    /// far as the target is ahead: the target is near enough that the
     /// light stays in the free space the probes found ahead, above and to
     /// the left.
     #[must_use]

@@ -47,7 +47,15 @@ fn committed_pictures_are_what_the_demo_draws() {
 
     let out = tmp_in("pictures", "demo");
     let out_arg = out.display().to_string();
-    let o = kdray(&["demo", "--size", "8", "--brute-sample", "0", "--out-dir", &out_arg]);
+    let o = kdray(&[
+        "demo",
+        "--size",
+        "8",
+        "--brute-sample",
+        "0",
+        "--out-dir",
+        &out_arg,
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     for name in PICTURES {
         let (w, h, fresh) = decode(&out.join(name));

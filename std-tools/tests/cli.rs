@@ -433,6 +433,11 @@ fn render_writes_pictures_and_refuses_bad_flags() {
         help.contains(&format!("{legend} pixels taller than --height")),
         "{help}"
     );
+    let o = kdray(&[
+        "render", &obj, "-o", &png, "--camera", "inside", "--eye", "0,0,5",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("cannot be used with"), "{}", stderr(&o));
     let o = kdray(&["render", &obj, "-o", &png, "--samples", "4", "--heatmap"]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("one ray a pixel"), "{}", stderr(&o));

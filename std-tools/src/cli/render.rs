@@ -90,9 +90,9 @@ pub(super) struct View {
     /// side: rooms, courtyards), or `auto`: inside when the scene
     /// encloses its bounds' centre (most rays from there hit the front of
     /// a triangle), else outside. Meshes and triangle trees; a scene
-    /// blob is framed from outside.
-    #[arg(long, value_enum, default_value_t = CameraArg::Auto)]
-    camera: CameraArg,
+    /// blob is framed from outside. [default: auto]
+    #[arg(long, value_enum, conflicts_with = "eye")]
+    camera: Option<CameraArg>,
     /// Image width in pixels.
     #[arg(long, default_value_t = 640)]
     pub(super) width: u32,
@@ -132,7 +132,7 @@ impl View {
         scene: &Bounds,
         tree: Option<&TriangleTree<'_>>,
     ) -> Result<Camera, String> {
-        let placement = match self.camera {
+        let placement = match self.camera.unwrap_or(CameraArg::Auto) {
             _ if self.eye.is_some() => Placement::Outside,
             CameraArg::Outside => Placement::Outside,
             CameraArg::Inside if tree.is_none() => {

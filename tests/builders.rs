@@ -277,7 +277,7 @@ fn real_meshes_match_brute_force() {
 
 #[test]
 fn trees_are_identical_for_any_thread_count() {
-    // The built-in scene (33k triangles) always, the bunny when present:
+    // The built-in scene (31k triangles) always, the bunny when present:
     // both are large enough for parallel subtrees, partitions and layout.
     let scenes = [
         Some(kdray::tools::demo_scene::teapot_in_stadium().triangles),

@@ -1,63 +1,19 @@
-//! The built-in scene: a teapot in a stadium. A detailed torus knot (the
-//! "teapot", ~33k triangles) stands on the floor of a hollow stadium a
-//! hundred times its size, with long thin axis-aligned bleachers: the case
-//! the lecture says k-d trees handle and octrees do not. Generated, so the
-//! project needs no mesh file to run.
+//! The built-in scene: a teapot in a stadium. The Utah teapot
+//! ([`crate::teapot`], 30,800 triangles) stands on the floor of a hollow
+//! stadium sixty times its size, with long thin axis-aligned bleachers:
+//! the case the lecture says k-d trees handle and octrees do not.
+//! Generated, so the project needs no mesh file to run.
 
 use kdray_kernel::Bounds;
 use kdray_kernel::Triangle;
-use std::f32::consts::TAU;
 
 /// The scene's triangles and the box around its detailed object.
 #[derive(Clone, Debug)]
 pub struct DemoScene {
-    /// All triangles: the knot first, then the stadium.
+    /// All triangles: the detailed object first, then the stadium.
     pub triangles: Vec<Triangle>,
-    /// The bounds of the knot (what a camera should frame).
+    /// The bounds of the detailed object (what a camera should frame).
     pub focus: Bounds,
-}
-
-/// The knot's path: a (2, 3) torus knot of major radius 1.
-fn knot(t: f32) -> glam::Vec3 {
-    let (p, q) = (2.0, 3.0);
-    let r = 1.0 + 0.4 * (q * t).cos();
-    glam::Vec3::new(
-        r * (p * t).cos(),
-        0.4 * (q * t).sin() + 0.8,
-        r * (p * t).sin(),
-    )
-}
-
-/// A tube of radius `radius` around the knot, `segments` x `sides` quads.
-fn tube(segments: usize, sides: usize, radius: f32) -> Vec<Triangle> {
-    let ring = |i: usize| {
-        let t = i as f32 / segments as f32 * TAU;
-        let c = knot(t);
-        let tangent = (knot(t + 1e-3) - knot(t - 1e-3)).normalize();
-        let n = tangent.cross(glam::Vec3::Y).normalize();
-        let b = tangent.cross(n);
-        (0..sides)
-            .map(|j| {
-                let a = j as f32 / sides as f32 * TAU;
-                (c + radius * (a.cos() * n + a.sin() * b)).to_array()
-            })
-            .collect::<Vec<_>>()
-    };
-    let rings: Vec<_> = (0..segments).map(ring).collect();
-    let mut tris = Vec::with_capacity(segments * sides * 2);
-    for i in 0..segments {
-        let (r0, r1) = (&rings[i], &rings[(i + 1) % segments]);
-        for j in 0..sides {
-            let k = (j + 1) % sides;
-            tris.push(Triangle {
-                v: [r0[j], r1[j], r1[k]],
-            });
-            tris.push(Triangle {
-                v: [r0[j], r1[k], r0[k]],
-            });
-        }
-    }
-    tris
 }
 
 /// The two triangles of an axis-aligned rectangle with corners `a` and `b`
@@ -103,13 +59,24 @@ fn closed_box(half: f32, height: f32) -> Vec<Triangle> {
     .concat()
 }
 
-/// The built-in teapot-in-a-stadium scene (deterministic).
+/// Grid steps a side of each of the teapot's patches in the built-in scene.
+pub const TEAPOT_SEGMENTS: u32 = 22;
+
+/// The built-in teapot-in-a-stadium scene (deterministic): the teapot at
+/// half the table's size (3.26 long, 1.575 high), standing on the floor
+/// at the stadium's centre.
 #[must_use]
 pub fn teapot_in_stadium() -> DemoScene {
-    let mut triangles = tube(1024, 16, 0.18);
+    // Halving is exact in f32: the seams stay shared bit for bit.
+    let mut triangles: Vec<Triangle> = crate::teapot::teapot(TEAPOT_SEGMENTS)
+        .into_iter()
+        .map(|t| Triangle {
+            v: t.v.map(|p| p.map(|c| c * 0.5)),
+        })
+        .collect();
     let focus = bounds_of(&triangles);
     let s = 100.0;
-    // The stadium: floor, four walls and a ceiling, a hundred knots wide.
+    // The stadium: floor, four walls and a ceiling, sixty teapots wide.
     triangles.extend(closed_box(s, s));
     // Bleachers: long, thin, axis-aligned steps along two sides.
     for step in 0..40 {
@@ -173,4 +140,33 @@ pub fn needles(n: usize) -> DemoScene {
         .collect();
     let focus = bounds_of(&triangles);
     DemoScene { triangles, focus }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_built_in_scene_is_the_teapot_in_the_stadium() {
+        let s = teapot_in_stadium();
+        // 32 patches of 22 x 22 quads less the 8 x 22 without area; the
+        // stadium's 12 and the bleachers' 40 steps of 8.
+        let teapot = 32 * 22 * 22 * 2 - 8 * 22;
+        assert_eq!(teapot, 30_800);
+        assert_eq!(s.triangles.len(), teapot + 12 + 40 * 8);
+        assert_eq!(s.focus, bounds_of(&s.triangles[..teapot]));
+        // Half the table's teapot, standing on the floor at the centre.
+        assert_eq!((s.focus.min[1], s.focus.max[1]), (0.0, 1.575));
+        assert!(s.focus.min[0] >= -1.5 && s.focus.max[0] <= 1.7625);
+        assert!(s.focus.min[2] >= -1.0 && s.focus.max[2] <= 1.0);
+        let all = bounds_of(&s.triangles);
+        assert_eq!((all.min, all.max), ([-100.0, 0.0, -100.0], [100.0; 3]));
+        // Deterministic: the same bits on every call.
+        let again = teapot_in_stadium();
+        assert!(s
+            .triangles
+            .iter()
+            .zip(&again.triangles)
+            .all(|(a, b)| a.v == b.v));
+    }
 }

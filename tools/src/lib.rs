@@ -27,4 +27,5 @@ pub mod points;
 pub mod render;
 pub mod rng;
 pub mod stats;
+pub mod teapot;
 pub mod trace;

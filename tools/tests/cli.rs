@@ -395,6 +395,66 @@ fn render_writes_pictures_and_refuses_bad_flags() {
     let o = kdray(&["render", &obj, "-o", &png, "--packet", "3"]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("1, 4, 8 or 16"), "{}", stderr(&o));
+    for (samples, says) in [
+        ("0", "between 1 and 64 rays a pixel, not 0"),
+        ("65", "between 1 and 64 rays a pixel, not 65"),
+    ] {
+        let o = kdray(&["render", &obj, "-o", &png, "--samples", samples]);
+        assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+        assert!(stderr(&o).contains(says), "{}", stderr(&o));
+    }
+    // A heatmap is the picture asked for with the legend strip under it,
+    // as --help says.
+    let o = kdray(&[
+        "render",
+        &obj,
+        "-o",
+        &png,
+        "--width",
+        "33",
+        "--height",
+        "17",
+        "--heatmap",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let legend = kdray_tools::render::LEGEND_HEIGHT;
+    let bytes = std::fs::read(&png).unwrap();
+    let size = |at: usize| u32::from_be_bytes(bytes[at..at + 4].try_into().unwrap());
+    assert_eq!((size(16), size(20)), (33, 17 + legend), "the PNG's IHDR");
+    assert!(
+        stdout(&o).contains(&format!(
+            "the legend adds {legend} rows under the 33x17 picture"
+        )),
+        "{}",
+        stdout(&o)
+    );
+    let help = stdout(&kdray(&["render", "--help"]));
+    assert!(
+        help.contains(&format!("{legend} pixels taller than --height")),
+        "{help}"
+    );
+    let o = kdray(&[
+        "render", &obj, "-o", &png, "--camera", "inside", "--eye", "0,0,5",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("cannot be used with"), "{}", stderr(&o));
+    let o = kdray(&["render", &obj, "-o", &png, "--samples", "4", "--heatmap"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("one ray a pixel"), "{}", stderr(&o));
+    let o = kdray(&[
+        "render",
+        &obj,
+        "-o",
+        &png,
+        "--width",
+        "9",
+        "--height",
+        "7",
+        "--samples",
+        "4",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("4 rays a pixel"), "{}", stdout(&o));
     let o = kdray(&["render", &obj, "-o", &png, "--eye", "1,2"]);
     assert!(stderr(&o).contains("x,y,z"), "{}", stderr(&o));
     let bad = write(&tmp("bad.kdt"), b"not a tree");
@@ -821,7 +881,7 @@ fn rays_makes_files_the_other_commands_read() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stdout(&o).contains("on 1 thread,"), "{}", stdout(&o));
 
-    // sort-rays: the same records in another order, in place too.
+    // sort-rays: the same records in another order.
     let random = file("random");
     let sorted = tmp("rays-sorted.rays");
     let o = kdray(&[
@@ -837,9 +897,6 @@ fn rays_makes_files_the_other_commands_read() {
     b.sort();
     assert_eq!(a, b, "the same rays in another order");
     let s = sorted.display().to_string();
-    let again = kdray(&["sort-rays", &s, "-o", &s]);
-    assert!(again.status.success(), "{}", stderr(&again));
-    assert_eq!(records(&sorted).len(), 77);
     let junk = write(&tmp("rays-junk.rays"), &[0u8; 33]);
     let o = kdray(&["sort-rays", &junk, "-o", &s]);
     assert_eq!(o.status.code(), Some(1));
@@ -1149,6 +1206,9 @@ fn an_output_over_an_input_is_refused() {
         &ray_bytes(&[[0.25, 0.75, 2.0, 0.0, 0.0, 0.0, -1.0, f32::INFINITY]]),
     );
     let pts = write(&dir.join("p.pts"), &[0u8; 12 * 4]);
+    let (gltf, bin) = quad_gltf_with_buffer_file(&dir);
+    let gltf_tree = dir.join("gltf.kdt").display().to_string();
+    assert!(kdray(&["build", &gltf, "-o", &gltf_tree]).status.success());
     let mut names = vec![obj.clone(), rays.clone(), tree.clone(), pts.clone()];
     #[cfg(unix)]
     {
@@ -1161,6 +1221,7 @@ fn an_output_over_an_input_is_refused() {
         names.push(link.display().to_string());
         names.push(hard.display().to_string());
     }
+    names.push(bin.clone());
     let before: Vec<Vec<u8>> = names.iter().map(|n| std::fs::read(n).unwrap()).collect();
     let link_obj = names.get(4).cloned().unwrap_or(obj.clone());
     let hard_rays = names.get(5).cloned().unwrap_or(rays.clone());
@@ -1175,6 +1236,13 @@ fn an_output_over_an_input_is_refused() {
         (vec!["export-obj", &obj, "-o", &obj], &obj),
         (vec!["build-points", &pts, "-o", &pts], &pts),
         (vec!["knn", &pts, &pts, "-o", &pts], &pts),
+        (vec!["sort-rays", &rays, "-o", &rays], &rays),
+        (vec!["sort-rays", &rays, "-o", &hard_rays], &rays),
+        // A glTF's external buffer is an input too.
+        (vec!["build", &gltf, "-o", &bin], &bin),
+        (vec!["render", &gltf, "-o", &bin], &bin),
+        (vec!["rays", &gltf, "-o", &bin], &bin),
+        (vec!["export-obj", &gltf, "-o", &bin], &bin),
     ];
     for (args, input) in cases {
         let o = kdray(&args);
@@ -1187,6 +1255,22 @@ fn an_output_over_an_input_is_refused() {
     }
     let after: Vec<Vec<u8>> = names.iter().map(|n| std::fs::read(n).unwrap()).collect();
     assert!(before == after, "an input changed");
+}
+
+/// [`quad_gltf`] with its buffer in the file `quad.bin` beside it, in
+/// `dir`: the glTF's path and the buffer's.
+fn quad_gltf_with_buffer_file(dir: &Path) -> (String, String) {
+    use base64::Engine as _;
+    let text = String::from_utf8(quad_gltf()).unwrap();
+    let start = text.find("data:").unwrap();
+    let end = start + text[start..].find('"').unwrap();
+    let payload = text[start..end].split_once(";base64,").unwrap().1;
+    let bytes = base64::engine::general_purpose::STANDARD
+        .decode(payload)
+        .unwrap();
+    let bin = write(&dir.join("quad.bin"), &bytes);
+    let text = format!("{}quad.bin{}", &text[..start], &text[end..]);
+    (write(&dir.join("quad.gltf"), text.as_bytes()), bin)
 }
 
 /// A glTF (buffer in a data: URI) whose mesh, the unit quad in z = 0, two
@@ -1274,6 +1358,14 @@ fn every_blob_kind_is_read_or_named() {
         (
             vec!["render", &cloud, "-o", &png],
             "this is a point tree; `kdray render` takes a mesh, a triangle tree or a scene",
+        ),
+        (
+            vec!["render", &scene, "-o", &png, "--camera", "inside"],
+            "--camera inside probes one tree: render the flattened scene",
+        ),
+        (
+            vec!["rays", &scene, "-o", &rays, "--camera", "inside"],
+            "--camera inside probes one tree: render the flattened scene",
         ),
     ];
     for (args, want) in cases {

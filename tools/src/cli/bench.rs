@@ -5,7 +5,7 @@
 //! thread (pin it: `taskset -c 0 kdray bench --threads 1`).
 //!
 //! A scene is an OBJ path or a generated scene: `stadium` (the built-in
-//! knot in a stadium with bleachers), `teapot-stadium:MESH` (MESH in the
+//! teapot in a stadium with bleachers), `teapot-stadium:MESH` (MESH in the
 //! 1000-wide box of `gen_stadium.py`), `needles` (long thin axis-aligned
 //! triangles). Camera rays frame the detailed object.
 
@@ -47,7 +47,7 @@ fn scene(
     mesh_args: MeshArgs,
 ) -> Result<(String, DemoScene), Box<dyn std::error::Error>> {
     if spec == "stadium" {
-        return Ok(("knot-in-stadium".into(), teapot_in_stadium()));
+        return Ok(("built-in teapot-in-stadium".into(), teapot_in_stadium()));
     }
     if spec == "needles" {
         return Ok(("needles".into(), needles(20_000)));

@@ -54,7 +54,7 @@ pub(crate) struct Args {
 
 pub(crate) fn run(a: &Args) -> CmdResult {
     // Every argument is checked before the mesh is read and built.
-    io::check_output_apart(&a.output, &[&a.mesh])?;
+    super::check_apart_from_mesh(&a.output, &a.mesh)?;
     let kind = BuilderKind::parse(&a.builder)?;
     check_threads(a.threads)?;
     if let Some(d) = a.max_depth.filter(|&d| d > kdray_kernel::MAX_DEPTH) {

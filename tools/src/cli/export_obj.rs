@@ -18,7 +18,7 @@ pub(crate) struct Args {
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
-    io::check_output_apart(&a.output, &[&a.mesh])?;
+    super::check_apart_from_mesh(&a.output, &a.mesh)?;
     let tris = a.mesh_args.load(&a.mesh)?;
     let text = kdray_tools::mesh::obj_text(&tris);
     io::write_bytes(&a.output, &text)?;

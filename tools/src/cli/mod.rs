@@ -200,6 +200,18 @@ fn wrong_kind(
     )
 }
 
+/// [`kdray_tools::io::check_output_apart`] for a command reading the mesh
+/// (or blob) `input`: the output may be neither it nor, for a glTF, a
+/// buffer file it names.
+fn check_apart_from_mesh(
+    output: &std::path::Path,
+    input: &std::path::Path,
+) -> Result<(), kdray_tools::io::RecordFileError> {
+    let files = kdray_tools::mesh::files_read(input);
+    let inputs: Vec<&std::path::Path> = files.iter().map(std::path::PathBuf::as_path).collect();
+    kdray_tools::io::check_output_apart(output, &inputs)
+}
+
 /// How the commands that read a mesh read it.
 #[derive(clap::Args, Debug, Default, Clone, Copy)]
 struct MeshArgs {

@@ -57,7 +57,7 @@ pub(crate) struct Args {
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
-    io::check_output_apart(&a.output, &[&a.scene])?;
+    super::check_apart_from_mesh(&a.output, &a.scene)?;
     a.view.check()?;
     if a.count == 0 || a.count as u64 > MAX_PIXELS {
         return Err(format!(
@@ -73,6 +73,10 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     };
     // A scene blob frames and aims rays as a flattened mesh does; only
     // shadow rays need one tree's triangles (to shade the camera hits).
+    let flat = match blob.kind() {
+        BlobKind::Triangles | BlobKind::Unknown => Some(tree()?),
+        BlobKind::Scene | BlobKind::Points => None,
+    };
     let scene = match blob.kind() {
         BlobKind::Scene if a.kind == Kind::Shadow => {
             return Err(format!(
@@ -91,7 +95,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         }
         BlobKind::Triangles | BlobKind::Unknown => tree()?.bounds(),
     };
-    let camera = a.view.camera(&scene);
+    let camera = a.view.camera(&scene, flat.as_ref())?;
     let (w, h) = (a.view.width, a.view.height);
     // Every buffer is reserved before it is filled: an image or count
     // past the memory there is gets an error naming it, not an abort.

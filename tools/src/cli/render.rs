@@ -5,13 +5,14 @@ use super::progress::counted_bar;
 use super::trace::parse_width;
 use super::{check_image, plural, thread_pool, wrong_kind, CmdResult, MeshArgs};
 use glam::Vec3;
-use kdray_kernel::{Bounds, PacketWidth};
+use kdray_kernel::{Bounds, PacketWidth, TriangleTree};
 use kdray_tools::blob::{write_triangle_tree, Blob, BlobKind};
 use kdray_tools::builders::{build, BuildParams, BuilderKind};
-use kdray_tools::camera::Camera;
+use kdray_tools::camera::{probe_tree, Camera, Placement};
 use kdray_tools::instances::SceneTracer;
-use kdray_tools::io;
-use kdray_tools::render::{bands, render, render_heatmap, RenderParams, TreeTracer};
+use kdray_tools::render::{
+    bands, render, render_heatmap, RenderParams, TreeTracer, LEGEND_HEIGHT, MAX_SAMPLES,
+};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -27,14 +28,21 @@ pub(crate) struct Args {
     #[command(flatten)]
     view: View,
     /// Render the traversal cost per pixel (nodes visited + triangles
-    /// tested, single rays) instead of the shaded picture. The PNG is 32
-    /// pixels taller than --height: the legend strip under the image.
+    /// tested by the closest-hit walk of the ray through the pixel's
+    /// centre, on a log scale) instead of the shaded picture. The PNG is
+    /// 46 pixels taller than --height: the legend strip under the picture
+    /// (whose rays are the shaded picture's).
     #[arg(long)]
     heatmap: bool,
     /// Rays per packet: 1, 4 (2x2 pixel tiles), 8 (4x2 tiles) or 16 (4x4
     /// tiles).
     #[arg(long, default_value = "8", value_parser = parse_width)]
     packet: PacketWidth,
+    /// Rays per pixel, 1 to 64, at fixed sub-pixel offsets (a Hammersley
+    /// set; 1 is the pixel's centre), averaged: smooth silhouettes and
+    /// shadow edges. The shaded picture only.
+    #[arg(long, default_value_t = 1)]
+    samples: u32,
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
@@ -54,6 +62,17 @@ fn parse_vec3(s: &str) -> Result<Vec3, String> {
     }
 }
 
+/// `--camera`: [`Placement`] by name.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum CameraArg {
+    /// Inside when the scene encloses its bounds' centre, else outside.
+    Auto,
+    /// Framing the whole scene from outside.
+    Outside,
+    /// Inside the scene.
+    Inside,
+}
+
 /// The camera and image size, for `render` and `rays` alike.
 #[derive(clap::Args, Debug)]
 pub(super) struct View {
@@ -66,6 +85,14 @@ pub(super) struct View {
     /// Vertical field of view in degrees.
     #[arg(long, allow_negative_numbers = true)]
     fov: Option<f32>,
+    /// Where the camera stands without --eye: `outside` framing the whole
+    /// scene, `inside` it (at the centre, stepped back along its longer
+    /// side: rooms, courtyards), or `auto`: inside when the scene
+    /// encloses its bounds' centre (most rays from there hit the front of
+    /// a triangle), else outside. Meshes and triangle trees; a scene
+    /// blob is framed from outside. [default: auto]
+    #[arg(long, value_enum, conflicts_with = "eye")]
+    camera: Option<CameraArg>,
     /// Image width in pixels.
     #[arg(long, default_value_t = 640)]
     pub(super) width: u32,
@@ -96,16 +123,37 @@ impl View {
         }
     }
 
-    /// The camera framing `scene`, with the user's eye, target and field
-    /// of view where given.
-    pub(super) fn camera(&self, scene: &Bounds) -> Camera {
-        let framing = Camera::framing(scene);
-        Camera {
+    /// The camera over `scene` (bounds) placed as --camera says, probing
+    /// `tree` (`None` for a scene blob: framed from outside), with the
+    /// user's eye, target and field of view where given (an eye given
+    /// frames from outside for what is not).
+    pub(super) fn camera(
+        &self,
+        scene: &Bounds,
+        tree: Option<&TriangleTree<'_>>,
+    ) -> Result<Camera, String> {
+        let placement = match self.camera.unwrap_or(CameraArg::Auto) {
+            _ if self.eye.is_some() => Placement::Outside,
+            CameraArg::Outside => Placement::Outside,
+            CameraArg::Inside if tree.is_none() => {
+                return Err(
+                    "--camera inside probes one tree: render the flattened scene (kdray build without --instances), or give --eye"
+                        .into(),
+                )
+            }
+            CameraArg::Inside => Placement::Inside,
+            CameraArg::Auto => Placement::Auto,
+        };
+        let framing = match tree {
+            Some(tree) => Camera::placed(scene, placement, |r| probe_tree(tree, r)),
+            None => Camera::framing(scene),
+        };
+        Ok(Camera {
             eye: self.eye.unwrap_or(framing.eye),
             target: self.target.unwrap_or(framing.target),
             fov_deg: self.fov.unwrap_or(framing.fov_deg),
             ..framing
-        }
+        })
     }
 }
 
@@ -127,10 +175,27 @@ pub(super) fn tree_blob(
     })
 }
 
+/// Refuses a sample count outside 1..=[`MAX_SAMPLES`], and more than one
+/// for a heatmap (which counts one ray's walk a pixel).
+fn check_samples(samples: u32, heatmap: bool) -> Result<(), String> {
+    if !(1..=MAX_SAMPLES).contains(&samples) {
+        return Err(format!(
+            "--samples must be between 1 and {MAX_SAMPLES} rays a pixel, not {samples}"
+        ));
+    }
+    if heatmap && samples > 1 {
+        return Err(format!(
+            "--samples {samples}: a heatmap counts the walk of one ray a pixel (the pixel's centre); drop --samples or --heatmap"
+        ));
+    }
+    Ok(())
+}
+
 pub(crate) fn run(a: &Args) -> CmdResult {
     // Every argument is checked before the scene is loaded or built.
-    io::check_output_apart(&a.output, &[&a.input])?;
+    super::check_apart_from_mesh(&a.output, &a.input)?;
     a.view.check()?;
+    check_samples(a.samples, a.heatmap)?;
     let pool = thread_pool(a.threads)?;
     let blob = tree_blob(&a.input, a.mesh_args)?;
     match blob.kind() {
@@ -150,16 +215,19 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         .tree()
         .map_err(|e| format!("{}: invalid tree blob: {e}", a.input.display()))?;
     let scene = tree.bounds();
-    let camera = a.view.camera(&scene);
+    let camera = a.view.camera(&scene, Some(&tree))?;
     let (width, height) = (a.view.width, a.view.height);
-    let params = RenderParams::new(camera, width, height);
+    let params = RenderParams {
+        samples: a.samples,
+        ..RenderParams::new(camera, width, height)
+    };
     let t = Instant::now();
     let image = if a.heatmap {
         let bar = counted_bar(u64::from(height));
         let h = pool.install(|| render_heatmap(&tree, &params, &|| bar.inc(1)));
         bar.finish();
         say!(
-            "cost per pixel (nodes visited + triangles tested): min {}, mean {:.1}, max {}",
+            "cost per pixel (nodes visited + triangles tested): min {}, mean {:.1}, max {}; the legend adds {LEGEND_HEIGHT} rows under the {width}x{height} picture",
             h.min,
             h.mean,
             h.max
@@ -185,7 +253,11 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         if a.heatmap {
             "single rays, counted".to_string()
         } else {
-            format!("packets of {}", a.packet.lanes())
+            format!(
+                "packets of {}, {}",
+                a.packet.lanes(),
+                plural(a.samples as usize, "ray") + " a pixel"
+            )
         },
         plural(pool.current_num_threads(), "thread"),
         seconds * 1e3,
@@ -207,9 +279,12 @@ fn render_scene(a: &Args, pool: &rayon::ThreadPool, blob: &Blob) -> CmdResult {
     let scene = blob
         .scene()
         .map_err(|e| format!("{}: invalid scene blob: {e}", a.input.display()))?;
-    let camera = a.view.camera(&scene.bounds());
+    let camera = a.view.camera(&scene.bounds(), None)?;
     let (width, height) = (a.view.width, a.view.height);
-    let params = RenderParams::new(camera, width, height);
+    let params = RenderParams {
+        samples: a.samples,
+        ..RenderParams::new(camera, width, height)
+    };
     let tracer = SceneTracer::new(&scene);
     let t = Instant::now();
     let bar = counted_bar(bands(height, PacketWidth::One));

@@ -2,8 +2,8 @@
 //! the same rays in the order of the Morton code of their origins (or of
 //! their origins and directions; `kdray_tools::morton`), as an engine
 //! gives the shadow or bounce rays of neighbouring pixels, for `trace` to
-//! measure that order beside the file's own. In and out may be the same
-//! file.
+//! measure that order beside the file's own. The output may not be the
+//! input (as for every command): the unsorted file is kept.
 
 use super::CmdResult;
 use kdray_kernel::{Ray, RayKey};
@@ -34,7 +34,7 @@ enum Key {
 }
 
 pub(crate) fn run(a: &Args) -> CmdResult {
-    io::check_output(&a.output)?;
+    io::check_output_apart(&a.output, &[&a.rays])?;
     let mut rays: Vec<Ray> = io::read_records(&a.rays, "ray")?;
     let (by, of) = match a.key {
         Key::Origin => (RayKey::Origin, "origins"),

@@ -40,6 +40,31 @@ pub(super) fn read(
     Ok(tris)
 }
 
+/// The files a glTF's buffers name by relative URI (not `data:` URIs, not
+/// a GLB's own BIN chunk), as the loader would resolve them beside the
+/// glTF (inside its folder or not: the loader refuses those itself). For
+/// a command's output-over-input check: `build scene.gltf -o scene.bin`
+/// must not replace the buffer it reads. A file that cannot be read or
+/// parsed names none (loading it reports why).
+#[must_use]
+pub fn buffer_files(path: &Path) -> Vec<PathBuf> {
+    let Ok(bytes) = std::fs::read(path) else {
+        return Vec::new();
+    };
+    let Ok(g) = gltf::Gltf::from_slice_without_validation(&bytes) else {
+        return Vec::new();
+    };
+    g.document
+        .buffers()
+        .filter_map(|b| match b.source() {
+            gltf::buffer::Source::Uri(uri) if !uri.starts_with("data:") => {
+                buffer_file(path, uri, true).ok()
+            }
+            _ => None,
+        })
+        .collect()
+}
+
 /// A glTF file with its mesh references kept: each mesh's triangles once,
 /// in its own space, and one instance per node that has a mesh, in the
 /// depth-first node order [`load_gltf`] flattens them in, so triangle `p` of

@@ -11,7 +11,7 @@ use kdray_kernel::Triangle;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-pub use gltf::{load_gltf, load_gltf_instanced, InstancedGltf};
+pub use gltf::{buffer_files, load_gltf, load_gltf_instanced, InstancedGltf};
 pub use obj::{load_obj, obj_text};
 pub use ply::load_ply;
 
@@ -110,6 +110,24 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Mesh, MeshError> 
         triangles: tris,
         skipped,
     })
+}
+
+/// Every file loading `path` reads: the mesh itself and, for a glTF,
+/// the buffer files its URIs name ([`buffer_files`]).
+#[must_use]
+pub fn files_read(path: &Path) -> Vec<PathBuf> {
+    let mut files = vec![path.to_path_buf()];
+    if is_gltf(path) {
+        files.extend(buffer_files(path));
+    }
+    files
+}
+
+/// Whether `path` has a glTF extension (`.gltf`, `.glb`, any case).
+fn is_gltf(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
 }
 
 /// Calls `emit` with the triangles of polygon `poly` fanned from its first

@@ -1,23 +1,40 @@
-//! Traversal-cost heatmaps: per pixel, the nodes visited plus triangles
-//! tested by the camera ray's closest-hit search, on a logarithmic colour
-//! ramp (a few silhouette rays cost tens of times the median; a linear
-//! ramp would paint everything else black), with a legend strip below the
-//! picture labelled with the smallest, middle and largest cost.
+//! Traversal-cost heatmaps: per pixel, the nodes visited (interior and
+//! leaf) plus the ray/triangle tests of the closest-hit search of the
+//! camera ray through the pixel's centre, on a logarithmic colour ramp (a
+//! few silhouette rays cost tens of times the median; a linear ramp would
+//! paint everything else black), with a legend strip below the picture:
+//! the ramp labelled with the smallest, middle and largest cost, and a
+//! caption saying the scale is logarithmic and what is counted. The
+//! strip adds [`LEGEND_HEIGHT`] rows: the picture above it is the size
+//! asked, its rays the same as a shaded picture's.
 
 use super::font::{draw_text, text_width, HEIGHT as FONT_HEIGHT};
 use super::{in_tiles, Image, RenderParams, BACKGROUND};
 use kdray_kernel::TriangleTree;
 
-/// Height in pixels of the legend strip under a heatmap.
-pub const LEGEND_HEIGHT: u32 = 32;
+/// Height in pixels of the legend strip under a heatmap: the image is
+/// this much taller than the picture asked for.
+pub const LEGEND_HEIGHT: u32 = 46;
 /// Font scale of the legend's labels.
 const LABEL_SCALE: u32 = 2;
 /// Margin around the legend's ramp bar.
 const MARGIN: u32 = 6;
 /// Height of the legend's ramp bar.
 const BAR: u32 = 8;
-// The labels fit in the strip.
-const _: () = assert!(MARGIN + BAR + 3 + FONT_HEIGHT * LABEL_SCALE <= LEGEND_HEIGHT);
+/// The row, from the strip's top, of the labels under the ramp.
+const LABELS: u32 = MARGIN + BAR + 3;
+/// The row, from the strip's top, of the caption under the labels.
+const CAPTION: u32 = LABELS + FONT_HEIGHT * LABEL_SCALE + 4;
+// The caption fits in the strip.
+const _: () = assert!(CAPTION + FONT_HEIGHT * LABEL_SCALE + 5 <= LEGEND_HEIGHT);
+
+/// The legend's captions, longest first: the widest that fits is drawn.
+const CAPTIONS: [&str; 4] = [
+    "LOG SCALE: NODES VISITED + TRIANGLES TESTED PER RAY",
+    "LOG SCALE: NODES + TRIANGLES PER RAY",
+    "LOG: NODES + TRIANGLES",
+    "LOG",
+];
 
 /// The ramp's stops, evenly spaced from cheap (dark) to expensive (bright).
 const RAMP: [[f32; 3]; 5] = [
@@ -124,7 +141,7 @@ fn draw_legend(img: &mut Image, top: u32, scale: &LogScale) {
             img.set(x, y, colour);
         }
     }
-    let y = top + MARGIN + BAR + 3;
+    let y = top + LABELS;
     let white = [235, 235, 235];
     draw_text(img, &scale.min.to_string(), x0, y, LABEL_SCALE, white);
     let mid = scale.cost_at(0.5).to_string();
@@ -133,10 +150,21 @@ fn draw_legend(img: &mut Image, top: u32, scale: &LogScale) {
     let max = scale.max.to_string();
     let x = x1.saturating_sub(text_width(&max, LABEL_SCALE));
     draw_text(img, &max, x, y, LABEL_SCALE, white);
+    if let Some(caption) = caption(x1.saturating_sub(x0)) {
+        draw_text(img, caption, x0, top + CAPTION, LABEL_SCALE, white);
+    }
+}
+
+/// The longest caption at most `width` pixels wide, if any is.
+fn caption(width: u32) -> Option<&'static str> {
+    CAPTIONS
+        .into_iter()
+        .find(|c| text_width(c, LABEL_SCALE) <= width)
 }
 
 #[cfg(test)]
 mod tests {
+    use super::super::font::can_draw;
     use super::*;
 
     #[test]
@@ -146,6 +174,33 @@ mod tests {
         assert!(steps.windows(2).all(|w| w[0] <= w[1]), "{steps:?}");
         assert_eq!(ramp(-1.0), ramp(0.0));
         assert_eq!(ramp(2.0), [252, 255, 164]);
+    }
+
+    #[test]
+    fn the_caption_says_log_scale_and_what_is_counted() {
+        assert!(
+            CAPTIONS.iter().all(|c| can_draw(c)),
+            "a letter without a glyph"
+        );
+        assert_eq!(caption(640), Some(CAPTIONS[0]));
+        assert_eq!(caption(300), Some(CAPTIONS[1]));
+        assert_eq!(caption(10), None);
+        // Drawn in its rows under the labels, in the labels' white.
+        let (w, h) = (640, 10);
+        let mut img = Image::filled(w, h + LEGEND_HEIGHT, BACKGROUND);
+        draw_legend(&mut img, h, &LogScale::new(1, 100));
+        let mut expect = Image::filled(w, h + LEGEND_HEIGHT, BACKGROUND);
+        draw_text(
+            &mut expect,
+            CAPTIONS[0],
+            MARGIN,
+            h + CAPTION,
+            LABEL_SCALE,
+            [235; 3],
+        );
+        let rows = |i: &Image| i.pixels[((h + CAPTION) * w) as usize..].to_vec();
+        assert_eq!(rows(&img), rows(&expect));
+        assert!(rows(&img).iter().filter(|&&p| p == [235; 3]).count() > 500);
     }
 
     #[test]

@@ -10,6 +10,7 @@ mod common;
 use common::{blob, shared_mesh};
 use kdray::kernel::{closest_point_brute, crossings_brute, Triangle, TriangleTree};
 use kdray::tools::builders::BuilderKind;
+use kdray::tools::distance;
 use proptest::prelude::*;
 
 /// A coordinate: mostly on a coarse grid (so planes, vertices and
@@ -66,7 +67,24 @@ fn assert_closest_matches_brute(tris: &[Triangle], qs: &[[f32; 3]]) {
                 let got = tree.closest_point_within(*q, max).map(|c| c.bits());
                 let want = closest_point_brute(tris, *q, max).map(|c| c.bits());
                 assert_eq!(got, want, "builder {}: {q:?} within {max}", kind.name());
+                // From any first triangle: the same.
+                let start = (q[0].to_bits() % (tris.len() as u32 + 2)) as u32;
+                let from = tree.closest_point_from(*q, max, start).map(|c| c.bits());
+                assert_eq!(from, want, "builder {}: {q:?} from {start}", kind.name());
             }
+        }
+        // The batch (in space order, each search from the previous answer)
+        // answers each query as the kernel does alone.
+        let mut batch = vec![None; qs.len()];
+        distance::closest_points(&tree, qs, f32::INFINITY, &mut batch);
+        for (q, b) in qs.iter().zip(&batch) {
+            let want = closest_point_brute(tris, *q, f32::INFINITY).map(|c| c.bits());
+            assert_eq!(
+                b.map(|c| c.bits()),
+                want,
+                "builder {}: batch {q:?}",
+                kind.name()
+            );
         }
     }
 }

@@ -208,9 +208,9 @@ impl TriangleTree<'_> {
 mod tests {
     extern crate std;
     use super::*;
+    use crate::geometry::Bounds;
     use crate::test_rng::Rng;
     use crate::triangle::{closest_point_brute, Triangle};
-    use crate::geometry::Bounds;
     use crate::Node;
     use std::vec::Vec;
 

@@ -11,6 +11,7 @@
 //! (the sign is the kernel's `contains` by the chosen [`InsideRule`]).
 
 use crate::morton::point_order;
+use crate::winding::WindingCaps;
 use bytemuck::{Pod, Zeroable};
 use kdray_kernel::{item_index, ClosestPoint, TriangleTree, MISS};
 use rayon::prelude::*;
@@ -24,15 +25,42 @@ pub enum InsideRule {
     /// The majority of this many rays (1 to 7), each by parity: for open
     /// or self-intersecting meshes.
     Vote(u32),
+    /// The generalized winding number above one half in magnitude
+    /// ([`WindingCaps`]): for open meshes, the rule the `f64` oracle of
+    /// the benchmarks uses. The batch functions close the mesh's holes
+    /// once per call.
+    Winding,
 }
 
 impl InsideRule {
-    /// Is `q` inside the mesh of `tree` by this rule?
+    /// Is `q` inside the mesh of `tree` by this rule? For
+    /// [`InsideRule::Winding`] this closes the mesh's holes on every call
+    /// (`O(n)`): for many points use the batch functions, or
+    /// [`WindingCaps::contains`] with caps made once.
     #[must_use]
     pub fn contains(self, tree: &TriangleTree<'_>, q: [f32; 3]) -> bool {
-        match self {
-            InsideRule::Parity => tree.contains(q),
-            InsideRule::Vote(n) => tree.contains_voting(q, n),
+        Inside::new(self, tree).contains(tree, q)
+    }
+}
+
+/// An [`InsideRule`] ready for many points: the caps of
+/// [`InsideRule::Winding`] made once.
+struct Inside {
+    rule: InsideRule,
+    caps: Option<WindingCaps>,
+}
+
+impl Inside {
+    fn new(rule: InsideRule, tree: &TriangleTree<'_>) -> Inside {
+        let caps = (rule == InsideRule::Winding).then(|| WindingCaps::new(tree.triangles()));
+        Inside { rule, caps }
+    }
+
+    fn contains(&self, tree: &TriangleTree<'_>, q: [f32; 3]) -> bool {
+        match (self.rule, &self.caps) {
+            (_, Some(caps)) => caps.contains(tree, q),
+            (InsideRule::Vote(n), None) => tree.contains_voting(q, n),
+            (_, None) => tree.contains(q),
         }
     }
 }
@@ -185,9 +213,10 @@ pub fn distance_records(
     sign: Option<InsideRule>,
     out: &mut [DistanceRecord],
 ) {
+    let inside = sign.map(|rule| Inside::new(rule, tree));
     in_space_order(tree, queries, out, |start, q| {
         let mut r = record_from(tree, q, max_distance, start);
-        if sign.is_some_and(|rule| rule.contains(tree, q)) {
+        if inside.as_ref().is_some_and(|i| i.contains(tree, q)) {
             r.distance = -r.distance;
         }
         r
@@ -208,9 +237,10 @@ pub fn signed_distances(
     rule: InsideRule,
     out: &mut [f32],
 ) {
+    let inside = Inside::new(rule, tree);
     in_space_order(tree, queries, out, |start, q| {
         let d = distance_from(tree, q, start);
-        if rule.contains(tree, q) {
+        if inside.contains(tree, q) {
             -d
         } else {
             d
@@ -226,5 +256,6 @@ pub fn occupancy(
     rule: InsideRule,
     out: &mut [bool],
 ) {
-    in_space_order(tree, queries, out, |_, q| rule.contains(tree, q));
+    let inside = Inside::new(rule, tree);
+    in_space_order(tree, queries, out, |_, q| inside.contains(tree, q));
 }

@@ -28,3 +28,4 @@ pub mod render;
 pub mod rng;
 pub mod stats;
 pub mod trace;
+pub mod winding;

@@ -145,8 +145,8 @@ pub use points::{
     MAX_POINT_FIELD,
 };
 pub use scene::{
-    inverse_affine, Instance, MeshEntry, Scene, SceneError, SceneHit, IDENTITY, KIND_SCENE,
-    MESH_ALIGN,
+    inverse_affine, Instance, MeshEntry, NotSimilar, Scene, SceneClosestPoint, SceneError,
+    SceneHit, IDENTITY, KIND_SCENE, MESH_ALIGN, SIMILAR,
 };
 pub use triangle::{
     any_hit_brute, bounds_in_range, closest_hit_brute, closest_point_brute, crossings_brute,

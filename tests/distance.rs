@@ -71,7 +71,7 @@ fn assert_closest_matches_brute(tris: &[Triangle], qs: &[[f32; 3]]) {
                 let want = closest_point_brute(tris, *q, max).map(|c| c.bits());
                 assert_eq!(got, want, "builder {}: {q:?} within {max}", kind.name());
                 // From any first triangle: the same.
-                let start = (q[0].to_bits() % (tris.len() as u32 + 2)) as u32;
+                let start = q[0].to_bits() % (tris.len() as u32 + 2);
                 let from = tree.closest_point_from(*q, max, start).map(|c| c.bits());
                 assert_eq!(from, want, "builder {}: {q:?} from {start}", kind.name());
             }

@@ -15,9 +15,9 @@
 //! [`winding_crossings_brute`] over the caps the ray passes near), exact
 //! under the strict fill rule. The mesh's own winding number is that
 //! integer minus the caps' solid angles, summed exactly in `f64` only for
-//! caps near the point: a cap of area `A` within radius `R` of its apex,
-//! seen from distance `D > R`, subtends at most `A / (D - R)^2`, and when
-//! those bounds cannot move `|w|` across `1/2` the far caps are skipped.
+//! points near a hole: a cap of area `A` within radius `R` of its apex,
+//! seen from distance `D > R`, subtends at most `A / (4π (D - R)^2)`, and
+//! when the bounds cannot move `|w|` across `1/2` the sum is skipped.
 //! For a closed mesh there are no caps and the rule is the ray's signed
 //! crossings.
 //!
@@ -25,6 +25,10 @@
 
 use kdray_kernel::{winding_crossings_brute, Triangle, TriangleTree, INSIDE_RAYS};
 use std::collections::HashMap;
+
+/// A cap whose solid angle may exceed this (over `4π`) is summed exactly
+/// when the bounds of all caps together cannot decide.
+const NEAR_CAP: f64 = 1.0 / 64.0;
 
 /// The caps that close an open mesh's holes (module docs), built once per
 /// mesh; empty for a closed, consistently oriented mesh.
@@ -230,7 +234,7 @@ impl WindingCaps {
     }
 
     /// Is `q` inside `tree`'s mesh: `|w| > 1/2` for its winding number
-    /// `w`, the far caps' solid angles bounded instead of summed when the
+    /// `w`, the caps' solid angles bounded instead of summed when the
     /// bound decides (module docs). `false` for a point with a NaN or
     /// infinite coordinate.
     #[must_use]
@@ -239,17 +243,29 @@ impl WindingCaps {
             return false;
         }
         let whole = self.capped_crossings(tree, q) as f64;
-        if self.caps.is_empty() {
-            return whole.abs() > 0.5;
-        }
+        // The caps' solid angles: all bounded from afar (`w` lies within
+        // `far` of `whole`); if that cannot decide, the caps near `q`
+        // summed exactly and the others bounded; if that cannot either,
+        // every cap summed exactly.
         let qw = wide(q);
-        let (mut w, mut far) = (whole, 0.0f64);
-        for cap in &self.caps {
+        let bound = |cap: &Cap| {
             let to = sub(cap.apex, qw);
             let beyond = dot(to, to).sqrt() - cap.radius;
-            let bound = cap.area / (4.0 * std::f64::consts::PI * beyond * beyond);
-            if beyond > 0.0 && bound < 1.0 / 64.0 {
-                far += bound;
+            if beyond > 0.0 {
+                cap.area / (4.0 * std::f64::consts::PI * beyond * beyond)
+            } else {
+                f64::INFINITY
+            }
+        };
+        let decided = |w: f64, far: f64| ((w.abs() - 0.5).abs() > far).then_some(w.abs() > 0.5);
+        if let Some(inside) = decided(whole, self.caps.iter().map(bound).sum()) {
+            return inside;
+        }
+        let (mut w, mut far) = (whole, 0.0f64);
+        for cap in &self.caps {
+            let b = bound(cap);
+            if b < NEAR_CAP {
+                far += b;
             } else {
                 w -= cap
                     .triangles
@@ -258,8 +274,8 @@ impl WindingCaps {
                     .sum::<f64>();
             }
         }
-        if (w.abs() - 0.5).abs() > 2.0 * far {
-            return w.abs() > 0.5;
+        if let Some(inside) = decided(w, far) {
+            return inside;
         }
         self.winding_number(tree, q).abs() > 0.5
     }

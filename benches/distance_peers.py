@@ -3,14 +3,16 @@
 Usage (pinned, nothing else compiling; the peers' venv from
 ../shared/anchors/python/setup.sh):
 
-    /work/bin/slot --quiet taskset -c 0 PY benches/distance_peers.py MESH.obj KDRAY [N]
+    /work/bin/slot --quiet taskset -c 0 PY benches/distance_peers.py MESH.obj KDRAY [N [RULE]]
 
-KDRAY is the release `kdray` binary. N query points (default 1M) uniform in
+KDRAY is the release `kdray` binary. RULE is kdray's sign rule for the
+signed distances: `winding` (the default, `--signed --winding`) or
+`parity` (`--signed`). N query points (default 1M) uniform in
 the mesh's box dilated by 10%, and N within 1% of the box diagonal of the
 surface. Timings exclude file I/O (kdray's own "seconds"); each is the best
 of two interleaved runs. Sign errors are counted on 5k near points against
 an f64 generalized winding number (|w| > 0.5 inside; exact for a closed
-mesh).
+mesh), for kdray by RULE and by parity, and for Open3D.
 """
 
 import json
@@ -53,6 +55,8 @@ def winding(V, F, q, chunk=64):
 def main():
     mesh_path, kdray = sys.argv[1], sys.argv[2]
     n = int(sys.argv[3]) if len(sys.argv) > 3 else 1_000_000
+    rule = sys.argv[4] if len(sys.argv) > 4 else "winding"
+    signed = {"winding": ["--signed", "--winding"], "parity": ["--signed"]}[rule]
     m = trimesh.load(mesh_path, force="mesh", process=False, skip_materials=True)
     V = np.asarray(m.vertices, dtype=np.float32)
     F = np.asarray(m.faces, dtype=np.int64)
@@ -87,11 +91,11 @@ def main():
             t = time.perf_counter()
             sd = scene.compute_signed_distance(qt, nthreads=1, nsamples=1).numpy()
             o3d_sd.append(time.perf_counter() - t)
-            k_sd.append(kdray_run(kdray, kdt, pts, out, ["--signed"]))
+            k_sd.append(kdray_run(kdray, kdt, pts, out, signed))
         print(
             f"{name} {label} {n} points: closest point kdray {min(k_cp):.3f} s, "
             f"Open3D {min(o3d_cp):.3f} s ({min(o3d_cp) / min(k_cp):.2f}x); "
-            f"signed kdray {min(k_sd):.3f} s, Open3D nsamples=1 {min(o3d_sd):.3f} s "
+            f"signed ({rule}) kdray {min(k_sd):.3f} s, Open3D nsamples=1 {min(o3d_sd):.3f} s "
             f"({min(o3d_sd) / min(k_sd):.2f}x)",
             flush=True,
         )
@@ -112,9 +116,13 @@ def main():
             inside = np.abs(w) > 0.5
             k_in = rec["d"][:s] < 0
             o_in = sd[:s] < 0
+            kdray_run(kdray, kdt, pts, out, ["--signed"])
+            par = np.fromfile(out, dtype=rec.dtype)
+            p_in = par["d"][:s] < 0
             print(
                 f"{name} near: sign errors against the f64 winding number on {s} points: "
-                f"kdray {int((k_in != inside).sum())}, Open3D {int((o_in != inside).sum())}; "
+                f"kdray ({rule}) {int((k_in != inside).sum())}, kdray (parity) {int((p_in != inside).sum())}, "
+                f"Open3D {int((o_in != inside).sum())}; "
                 f"points with |w| in (0.1, 0.9) (not closed there): {int(((np.abs(w) > 0.1) & (np.abs(w) < 0.9)).sum())}",
                 flush=True,
             )

@@ -8,8 +8,12 @@
 mod common;
 
 use common::{blob, shared_mesh};
-use kdray::kernel::{closest_point_brute, crossings_brute, Triangle, TriangleTree};
+use kdray::kernel::{
+    closest_point_brute, crossings_brute, winding_crossings_brute, Triangle, TriangleTree,
+};
 use kdray::tools::builders::BuilderKind;
+use kdray::tools::distance::{self, InsideRule};
+use kdray::tools::winding;
 use proptest::prelude::*;
 
 /// A coordinate: mostly on a coarse grid (so planes, vertices and
@@ -66,7 +70,24 @@ fn assert_closest_matches_brute(tris: &[Triangle], qs: &[[f32; 3]]) {
                 let got = tree.closest_point_within(*q, max).map(|c| c.bits());
                 let want = closest_point_brute(tris, *q, max).map(|c| c.bits());
                 assert_eq!(got, want, "builder {}: {q:?} within {max}", kind.name());
+                // From any first triangle: the same.
+                let start = q[0].to_bits() % (tris.len() as u32 + 2);
+                let from = tree.closest_point_from(*q, max, start).map(|c| c.bits());
+                assert_eq!(from, want, "builder {}: {q:?} from {start}", kind.name());
             }
+        }
+        // The batch (in space order, each search from the previous answer)
+        // answers each query as the kernel does alone.
+        let mut batch = vec![None; qs.len()];
+        distance::closest_points(&tree, qs, f32::INFINITY, &mut batch);
+        for (q, b) in qs.iter().zip(&batch) {
+            let want = closest_point_brute(tris, *q, f32::INFINITY).map(|c| c.bits());
+            assert_eq!(
+                b.map(|c| c.bits()),
+                want,
+                "builder {}: batch {q:?}",
+                kind.name()
+            );
         }
     }
 }
@@ -81,6 +102,12 @@ fn assert_crossings_match_brute(tris: &[Triangle], rays: &[([f32; 3], [f32; 3])]
                 tree.crossings(q, d),
                 crossings_brute(tris, q, d),
                 "builder {}: {q:?} along {d:?}",
+                kind.name()
+            );
+            assert_eq!(
+                tree.winding_crossings(q, d),
+                winding_crossings_brute(tris, q, d),
+                "builder {}: signed, {q:?} along {d:?}",
                 kind.name()
             );
         }
@@ -241,6 +268,106 @@ fn an_open_box_is_judged_by_the_vote() {
         "no ray went through the hole: the test tests nothing"
     );
     assert_eq!(vote_wrong, 0);
+}
+
+/// [`box_mesh`] with every normal pointing out.
+fn outward_box(lo: f32, hi: f32) -> Vec<Triangle> {
+    let mid = (lo + hi) / 2.0;
+    box_mesh(lo, hi)
+        .into_iter()
+        .map(|t| {
+            let [a, b, c] = t.v;
+            let e = |p: [f32; 3], q: [f32; 3]| std::array::from_fn::<f32, 3, _>(|i| q[i] - p[i]);
+            let (ab, ac) = (e(a, b), e(a, c));
+            let n = [
+                ab[1] * ac[2] - ab[2] * ac[1],
+                ab[2] * ac[0] - ab[0] * ac[2],
+                ab[0] * ac[1] - ab[1] * ac[0],
+            ];
+            let out: f32 = (0..3)
+                .map(|i| n[i] * ((a[i] + b[i] + c[i]) / 3.0 - mid))
+                .sum();
+            if out < 0.0 {
+                Triangle { v: [a, c, b] }
+            } else {
+                t
+            }
+        })
+        .collect()
+}
+
+/// The winding number summed over every triangle, the oracle of the
+/// winding rule.
+fn winding_sum(tris: &[Triangle], q: [f32; 3]) -> f64 {
+    tris.iter()
+        .map(|t| winding::triangle_winding(t, q.map(f64::from)))
+        .sum()
+}
+
+#[test]
+fn the_winding_rule_is_the_winding_number_of_an_open_box() {
+    // The box without one triangle of its top face (a hole), and without
+    // its whole bottom face (a square hole of two triangles).
+    let mut tris = outward_box(0.0, 4.0);
+    tris.remove(11);
+    tris.drain(4..6);
+    let b = blob(&tris, BuilderKind::default());
+    let tree = b.tree().unwrap();
+    let caps = winding::WindingCaps::new(&tris);
+    assert_eq!(
+        caps.triangle_count(),
+        3 + 4,
+        "a triangular and a square hole"
+    );
+    let mut parity_wrong = 0;
+    let mut checked = 0;
+    for i in 0..400u32 {
+        // Inside, around, and just beside the holes.
+        let f = |k: u32| -1.0 + 6.0 * ((i * k % 101) as f32 / 101.0);
+        let q = [f(13), f(29), f(53)];
+        let w = winding_sum(&tris, q);
+        let got = caps.winding_number(&tree, q);
+        assert!((got - w).abs() < 1e-9, "{q:?}: {got} against {w}");
+        if (w.abs() - 0.5).abs() > 1e-9 {
+            checked += 1;
+            assert_eq!(caps.contains(&tree, q), w.abs() > 0.5, "{q:?}: w {w}");
+            assert_eq!(InsideRule::Winding.contains(&tree, q), w.abs() > 0.5);
+            parity_wrong += usize::from(tree.contains(q) != (w.abs() > 0.5));
+        }
+    }
+    assert!(checked > 300);
+    assert!(
+        parity_wrong > 0,
+        "parity agreed everywhere: the test tests nothing"
+    );
+    // The batch: signed distances negative exactly where the rule says.
+    let qs: Vec<[f32; 3]> = (0..50).map(|i| [0.05 + 0.1 * i as f32, 2.0, 3.9]).collect();
+    let mut d = vec![0.0; qs.len()];
+    distance::signed_distances(&tree, &qs, InsideRule::Winding, &mut d);
+    for (q, d) in qs.iter().zip(&d) {
+        assert_eq!(*d < 0.0, caps.contains(&tree, *q), "{q:?}");
+    }
+}
+
+#[test]
+fn a_closed_mesh_needs_no_caps_and_winds_once() {
+    let tris = outward_box(0.0, 4.0);
+    let b = blob(&tris, BuilderKind::default());
+    let tree = b.tree().unwrap();
+    let caps = winding::WindingCaps::new(&tris);
+    assert_eq!(caps.triangle_count(), 0);
+    for q in [
+        [1.0, 2.0, 3.0],
+        [4.0, 2.0, 2.0],
+        [5.0, 1.0, 1.0],
+        [0.0, 0.0, 0.0],
+    ] {
+        let w = caps.winding_number(&tree, q);
+        assert!((w - winding_sum(&tris, q)).abs() < 1e-9 || q[0] == 4.0 || q[0] == 0.0);
+        assert_eq!(caps.contains(&tree, q), tree.contains(q), "{q:?}");
+    }
+    assert_eq!(caps.winding_number(&tree, [1.0, 2.0, 3.0]), 1.0);
+    assert!(!caps.contains(&tree, [f32::NAN, 0.0, 0.0]));
 }
 
 /// The exact distance from `q` to `tri` in `f64`, by another route than the

@@ -145,12 +145,12 @@ pub use points::{
     MAX_POINT_FIELD,
 };
 pub use scene::{
-    inverse_affine, Instance, MeshEntry, Scene, SceneError, SceneHit, IDENTITY, KIND_SCENE,
-    MESH_ALIGN,
+    inverse_affine, Instance, MeshEntry, NotSimilar, Scene, SceneClosestPoint, SceneError,
+    SceneHit, IDENTITY, KIND_SCENE, MESH_ALIGN, SIMILAR,
 };
 pub use triangle::{
     any_hit_brute, bounds_in_range, closest_hit_brute, closest_point_brute, crossings_brute,
-    first_hits_brute, ClosestPoint, SurfacePoint, Triangle, MAX_COORD,
+    first_hits_brute, winding_crossings_brute, ClosestPoint, SurfacePoint, Triangle, MAX_COORD,
 };
 pub use triangle_tree::packet::{Packet, Packet16, Packet4, Packet8, PacketWidth};
 pub use triangle_tree::{

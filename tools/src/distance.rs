@@ -1,16 +1,19 @@
 //! Distance queries over slices of points on all cores: the closest
 //! point, the distance, the signed distance and occupancy of every query,
-//! each one call of the kernel's query ([`TriangleTree::closest_point_within`],
+//! each one call of the kernel's query ([`TriangleTree::closest_point_from`],
 //! [`TriangleTree::contains`], [`TriangleTree::contains_voting`]) on the
-//! current rayon pool. Every answer is the kernel's, whatever the thread
-//! count.
+//! current rayon pool, the queries taken in space (Morton) order so each
+//! search starts from its predecessor's triangle. Every answer is the
+//! kernel's for that query alone, whatever the order and thread count.
 //!
 //! The distance is `sqrt(distance2)` of the kernel's `f64` squared
 //! distance, rounded once to `f32`; the signed distance is negative inside
 //! (the sign is the kernel's `contains` by the chosen [`InsideRule`]).
 
+use crate::morton::point_order;
+use crate::winding::WindingCaps;
 use bytemuck::{Pod, Zeroable};
-use kdray_kernel::{ClosestPoint, TriangleTree, MISS};
+use kdray_kernel::{item_index, ClosestPoint, TriangleTree, MISS};
 use rayon::prelude::*;
 
 /// How inside and outside are told apart.
@@ -22,15 +25,42 @@ pub enum InsideRule {
     /// The majority of this many rays (1 to 7), each by parity: for open
     /// or self-intersecting meshes.
     Vote(u32),
+    /// The generalized winding number above one half in magnitude
+    /// ([`WindingCaps`]): for open meshes, the rule the `f64` oracle of
+    /// the benchmarks uses. The batch functions close the mesh's holes
+    /// once per call.
+    Winding,
 }
 
 impl InsideRule {
-    /// Is `q` inside the mesh of `tree` by this rule?
+    /// Is `q` inside the mesh of `tree` by this rule? For
+    /// [`InsideRule::Winding`] this closes the mesh's holes on every call
+    /// (`O(n)`): for many points use the batch functions, or
+    /// [`WindingCaps::contains`] with caps made once.
     #[must_use]
     pub fn contains(self, tree: &TriangleTree<'_>, q: [f32; 3]) -> bool {
-        match self {
-            InsideRule::Parity => tree.contains(q),
-            InsideRule::Vote(n) => tree.contains_voting(q, n),
+        Inside::new(self, tree).contains(tree, q)
+    }
+}
+
+/// An [`InsideRule`] ready for many points: the caps of
+/// [`InsideRule::Winding`] made once.
+struct Inside {
+    rule: InsideRule,
+    caps: Option<WindingCaps>,
+}
+
+impl Inside {
+    fn new(rule: InsideRule, tree: &TriangleTree<'_>) -> Inside {
+        let caps = (rule == InsideRule::Winding).then(|| WindingCaps::new(tree.triangles()));
+        Inside { rule, caps }
+    }
+
+    fn contains(&self, tree: &TriangleTree<'_>, q: [f32; 3]) -> bool {
+        match (self.rule, &self.caps) {
+            (_, Some(caps)) => caps.contains(tree, q),
+            (InsideRule::Vote(n), None) => tree.contains_voting(q, n),
+            (_, None) => tree.contains(q),
         }
     }
 }
@@ -88,14 +118,71 @@ pub fn distance(c: &ClosestPoint) -> f32 {
     c.distance2.sqrt() as f32
 }
 
-/// The distance from `q` to the mesh, as a [`DistanceRecord`] has it.
-fn distance_to(tree: &TriangleTree<'_>, q: [f32; 3]) -> f32 {
+/// The distance from `q` to the mesh, as a [`DistanceRecord`] has it,
+/// the search starting from triangle `start` (then set to the answer's).
+fn distance_from(tree: &TriangleTree<'_>, q: [f32; 3], start: &mut u32) -> f32 {
+    record_from(tree, q, f32::INFINITY, start).distance
+}
+
+/// The [`DistanceRecord`] of `q` within `max_distance`, the search starting
+/// from triangle `start` (then set to the answer's).
+fn record_from(
+    tree: &TriangleTree<'_>,
+    q: [f32; 3],
+    max_distance: f32,
+    start: &mut u32,
+) -> DistanceRecord {
     let finite = q.iter().all(|c| c.is_finite());
-    DistanceRecord::new(tree.closest_point(q), finite).distance
+    let c = tree.closest_point_from(q, max_distance, *start);
+    if let Some(c) = &c {
+        *start = c.prim;
+    }
+    DistanceRecord::new(c, finite)
 }
 
 /// Queries per rayon task: enough work to amortise the task.
 const CHUNK: usize = 256;
+
+/// `out[i] = each(start, queries[i])` for every pair, on the current rayon
+/// pool, the queries taken in the Morton order of their positions over
+/// the tree's box ([`point_order`]): a walk finds the cells and triangles
+/// its predecessor read still in cache, and `start` (`u32::MAX` at the
+/// start of each task) carries the previous answer's triangle, a tight
+/// first bound for the next closest-point search. Each answer is the
+/// kernel's for its query alone, whatever the order.
+fn in_space_order<T: Send>(
+    tree: &TriangleTree<'_>,
+    queries: &[[f32; 3]],
+    out: &mut [T],
+    each: impl Fn(&mut u32, [f32; 3]) -> T + Sync,
+) {
+    let n = queries.len().min(out.len());
+    let Some(order) = point_order(&queries[..n], &tree.bounds()) else {
+        // Past `u32::MAX` queries: in their own order.
+        out.par_chunks_mut(CHUNK)
+            .zip(queries.par_chunks(CHUNK))
+            .for_each(|(out, queries)| {
+                let mut start = u32::MAX;
+                for (o, q) in out.iter_mut().zip(queries) {
+                    *o = each(&mut start, *q);
+                }
+            });
+        return;
+    };
+    let answers: Vec<Vec<T>> = order
+        .par_chunks(CHUNK)
+        .map(|items| {
+            let mut start = u32::MAX;
+            items
+                .iter()
+                .map(|&i| each(&mut start, queries[item_index(i)]))
+                .collect()
+        })
+        .collect();
+    for (answer, &i) in answers.into_iter().flatten().zip(&order) {
+        out[item_index(i)] = answer;
+    }
+}
 
 /// The closest point of every query within `max_distance`
 /// (`f32::INFINITY`: no limit), into `out` (`None`: nothing within
@@ -107,13 +194,13 @@ pub fn closest_points(
     max_distance: f32,
     out: &mut [Option<ClosestPoint>],
 ) {
-    out.par_chunks_mut(CHUNK)
-        .zip(queries.par_chunks(CHUNK))
-        .for_each(|(out, queries)| {
-            for (o, q) in out.iter_mut().zip(queries) {
-                *o = tree.closest_point_within(*q, max_distance);
-            }
-        });
+    in_space_order(tree, queries, out, |start, q| {
+        let c = tree.closest_point_from(q, max_distance, *start);
+        if let Some(c) = &c {
+            *start = c.prim;
+        }
+        c
+    });
 }
 
 /// The `.dist` record of every query (see [`DistanceRecord`]): the
@@ -126,30 +213,20 @@ pub fn distance_records(
     sign: Option<InsideRule>,
     out: &mut [DistanceRecord],
 ) {
-    out.par_chunks_mut(CHUNK)
-        .zip(queries.par_chunks(CHUNK))
-        .for_each(|(out, queries)| {
-            for (o, q) in out.iter_mut().zip(queries) {
-                let finite = q.iter().all(|c| c.is_finite());
-                let c = tree.closest_point_within(*q, max_distance);
-                *o = DistanceRecord::new(c, finite);
-                if sign.is_some_and(|rule| rule.contains(tree, *q)) {
-                    o.distance = -o.distance;
-                }
-            }
-        });
+    let inside = sign.map(|rule| Inside::new(rule, tree));
+    in_space_order(tree, queries, out, |start, q| {
+        let mut r = record_from(tree, q, max_distance, start);
+        if inside.as_ref().is_some_and(|i| i.contains(tree, q)) {
+            r.distance = -r.distance;
+        }
+        r
+    });
 }
 
 /// The distance of every query to the mesh (`+inf` for an empty mesh, NaN
 /// for a query that is not finite), into `out`; on the current rayon pool.
 pub fn distances(tree: &TriangleTree<'_>, queries: &[[f32; 3]], out: &mut [f32]) {
-    out.par_chunks_mut(CHUNK)
-        .zip(queries.par_chunks(CHUNK))
-        .for_each(|(out, queries)| {
-            for (o, q) in out.iter_mut().zip(queries) {
-                *o = distance_to(tree, *q);
-            }
-        });
+    in_space_order(tree, queries, out, |start, q| distance_from(tree, q, start));
 }
 
 /// The signed distance of every query (negative inside by `rule`), into
@@ -160,14 +237,15 @@ pub fn signed_distances(
     rule: InsideRule,
     out: &mut [f32],
 ) {
-    out.par_chunks_mut(CHUNK)
-        .zip(queries.par_chunks(CHUNK))
-        .for_each(|(out, queries)| {
-            for (o, q) in out.iter_mut().zip(queries) {
-                let d = distance_to(tree, *q);
-                *o = if rule.contains(tree, *q) { -d } else { d };
-            }
-        });
+    let inside = Inside::new(rule, tree);
+    in_space_order(tree, queries, out, |start, q| {
+        let d = distance_from(tree, q, start);
+        if inside.contains(tree, q) {
+            -d
+        } else {
+            d
+        }
+    });
 }
 
 /// Whether every query lies inside the mesh by `rule`, into `out`; on the
@@ -178,11 +256,6 @@ pub fn occupancy(
     rule: InsideRule,
     out: &mut [bool],
 ) {
-    out.par_chunks_mut(CHUNK)
-        .zip(queries.par_chunks(CHUNK))
-        .for_each(|(out, queries)| {
-            for (o, q) in out.iter_mut().zip(queries) {
-                *o = rule.contains(tree, *q);
-            }
-        });
+    let inside = Inside::new(rule, tree);
+    in_space_order(tree, queries, out, |_, q| inside.contains(tree, q));
 }

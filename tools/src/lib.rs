@@ -29,3 +29,4 @@ pub mod rng;
 pub mod stats;
 pub mod teapot;
 pub mod trace;
+pub mod winding;

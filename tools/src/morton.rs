@@ -6,7 +6,7 @@
 //! keys and the sort are the kernel's ([`MortonGrid`], [`sort_items`]);
 //! here the keys are made on all cores.
 
-use kdray_kernel::{item_index, sort_items, MortonGrid, Ray, RayKey};
+use kdray_kernel::{item_index, sort_items, Bounds, MortonGrid, Ray, RayKey};
 use rayon::prelude::*;
 
 /// The rays' indices in the Morton order of their keys (`by`), over the
@@ -36,6 +36,26 @@ pub fn sort_by(rays: &mut [Ray], by: RayKey) {
         let sorted: Vec<Ray> = order.iter().map(|&i| rays[item_index(i)]).collect();
         rays.copy_from_slice(&sorted);
     }
+}
+
+/// The points' indices in the Morton order of their positions over the
+/// box `bounds` (points outside it clamped onto it), as the kernel's items
+/// (read each with [`item_index`]): points of equal key keep their order,
+/// points with a non-finite coordinate come last. `None` past `u32::MAX`
+/// points.
+#[must_use]
+pub fn point_order(points: &[[f32; 3]], bounds: &Bounds) -> Option<Vec<u64>> {
+    u32::try_from(points.len()).ok()?;
+    let grid = MortonGrid::new(bounds);
+    let mut items: Vec<u64> = points
+        .par_iter()
+        .enumerate()
+        .map(|(i, &p)| u64::from(grid.key(p)) << 32 | i as u64)
+        .collect();
+    let mut spare = vec![0u64; items.len()];
+    // `spare` is as long: the sort always runs.
+    sort_items(&mut items, &mut spare);
+    Some(items)
 }
 
 #[cfg(test)]

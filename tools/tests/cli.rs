@@ -1594,6 +1594,31 @@ fn distance_writes_closest_points_and_signed_distances() {
     assert!(o.status.success(), "{}", stderr(&o));
     let r = dist_records(&std::fs::read(&out).unwrap());
     assert_eq!([r[0].4, r[1].4, r[2].4], [2.0, -0.25, 2.0]);
+    // By the winding number: the same on the cube with every face turned
+    // out. This cube's floor faces in, so its winding number just above
+    // the floor is near 0: outside by that rule. Not with --votes.
+    let turned = String::from_utf8_lossy(CUBE_OBJ).replace("f 1 2 3 4", "f 1 4 3 2");
+    let oriented = write(&tmp("dcube-out.obj"), turned.as_bytes());
+    let oriented_tree = tmp("dcube-out.kdt").display().to_string();
+    assert!(kdray(&["build", &oriented, "-o", &oriented_tree])
+        .status
+        .success());
+    let signed_by = |tree: &str, rule: &[&str]| {
+        let out = out.display().to_string();
+        let mut args = vec!["distance", tree, &pts, "-o", &out, "--signed"];
+        args.extend(rule);
+        let o = kdray(&args);
+        o.status.success().then(|| {
+            let r = dist_records(&std::fs::read(&out).unwrap());
+            [r[0].4, r[1].4, r[2].4]
+        })
+    };
+    assert_eq!(
+        signed_by(&oriented_tree, &["--winding"]),
+        Some([2.0, -0.25, 2.0])
+    );
+    assert_eq!(signed_by(&tree, &["--winding"]), Some([2.0, 0.25, 2.0]));
+    assert_eq!(signed_by(&tree, &["--winding", "--votes", "3"]), None);
     // Within 1: the first and last have no point.
     let o = kdray(&[
         "distance",

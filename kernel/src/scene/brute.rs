@@ -2,6 +2,7 @@
 //! brute force over its mesh's triangles with the ray in its space by the
 //! same arithmetic ([`Instance::local_ray`](super::Instance::local_ray)).
 
+use super::closest_point::{NearestInstance, NotSimilar, SceneClosestPoint};
 use super::{Scene, SceneHit};
 use crate::geometry::{ray_is_valid, Ray};
 use crate::triangle::{any_hit_brute, closest_hit_brute, offer_every_triangle, FirstHits};
@@ -51,5 +52,30 @@ impl Scene<'_> {
             }
         }
         first.len()
+    }
+
+    /// The brute-force closest point: every selected instance, every
+    /// triangle ([`closest_point_brute`](crate::closest_point_brute) with
+    /// the query in the instance's space), by the rule of
+    /// [`Scene::closest_point`]. What it is held to.
+    ///
+    /// # Errors
+    /// [`NotSimilar`] as [`Scene::closest_point`].
+    pub fn closest_point_brute(
+        &self,
+        q: [f32; 3],
+        mask: u32,
+    ) -> Result<Option<SceneClosestPoint>, NotSimilar> {
+        let mut near = NearestInstance { best: None };
+        if !q.iter().all(|c| c.is_finite()) {
+            return Ok(None);
+        }
+        self.similar_instances(mask, |i, inst, mesh, s2| {
+            let local = inst.local_point(q);
+            if let Some(c) = crate::closest_point_brute(mesh.triangles(), local, f32::INFINITY) {
+                near.keep(i, inst, s2, c);
+            }
+        })?;
+        Ok(near.best)
     }
 }

@@ -39,6 +39,11 @@ pub const IDENTITY: [f32; 12] = [
 /// a ray that hits the instance in its own space passes through the box.
 const BOX_PAD: f64 = 1.0 / 4096.0;
 
+/// How far from a similarity an instance's transform may be and still be
+/// taken for one ([`Instance::similarity_scale2`]): `2^-16` relative, far
+/// above the `f32` rounding of a rotation's entries.
+pub const SIMILAR: f64 = 1.0 / 65_536.0;
+
 impl Instance {
     /// Mesh `mesh` placed by `to_world` (3×4 row-major), with a user `id`
     /// and a `mask` (a ray sees the instance when `ray mask & mask != 0`).
@@ -103,23 +108,68 @@ impl Instance {
     #[must_use]
     pub fn local_ray(&self, ray: &Ray) -> Ray {
         let m = &self.to_local;
-        let (o, d) = (ray.origin, ray.dir);
+        let d = ray.dir;
         // Rust never contracts these to fused multiply-adds, so every
         // platform rounds them alike.
-        let row = |r: usize| {
-            let at = |c: usize| m.get(r * 4 + c).copied().unwrap_or(0.0);
-            ((at(0) * o[0] + at(1) * o[1]) + at(2) * o[2]) + at(3)
-        };
         let dir = |r: usize| {
             let at = |c: usize| m.get(r * 4 + c).copied().unwrap_or(0.0);
             (at(0) * d[0] + at(1) * d[1]) + at(2) * d[2]
         };
         Ray {
-            origin: [row(0), row(1), row(2)],
+            origin: self.local_point(ray.origin),
             tmin: ray.tmin,
             dir: [dir(0), dir(1), dir(2)],
             tmax: ray.tmax,
         }
+    }
+
+    /// The world point `p` in the instance's space, by the arithmetic of
+    /// [`Instance::local_ray`]'s origin.
+    #[inline]
+    #[must_use]
+    pub fn local_point(&self, p: [f32; 3]) -> [f32; 3] {
+        let m = &self.to_local;
+        let row = |r: usize| {
+            let at = |c: usize| m.get(r * 4 + c).copied().unwrap_or(0.0);
+            ((at(0) * p[0] + at(1) * p[1]) + at(2) * p[2]) + at(3)
+        };
+        [row(0), row(1), row(2)]
+    }
+
+    /// The squared scale of the instance's transform if it is a rotation
+    /// (or reflection) times a uniform scale `s` (a similarity), within
+    /// [`SIMILAR`] relative: `s^2`, the mean squared length of the linear
+    /// part's columns, in `f64`. `None` for a non-uniform scale or a
+    /// shear, under which the nearest point in the mesh's space is not
+    /// the nearest in the world.
+    #[must_use]
+    pub fn similarity_scale2(&self) -> Option<f64> {
+        let m = self.to_world.map(f64::from);
+        let col = |c: usize| [m[c], m[4 + c], m[8 + c]];
+        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let (c0, c1, c2) = (col(0), col(1), col(2));
+        let lens = [dot(c0, c0), dot(c1, c1), dot(c2, c2)];
+        let s2 = (lens[0] + lens[1] + lens[2]) / 3.0;
+        let tol = s2 * SIMILAR;
+        let similar = s2 > 0.0
+            && s2.is_finite()
+            && lens.iter().all(|l| (l - s2).abs() <= tol)
+            && [dot(c0, c1), dot(c1, c2), dot(c2, c0)]
+                .iter()
+                .all(|d| d.abs() <= tol);
+        similar.then_some(s2)
+    }
+
+    /// The world point of the instance's point `p`: through the
+    /// transform in `f64`, rounded once.
+    #[must_use]
+    pub fn world_point(&self, p: [f32; 3]) -> [f32; 3] {
+        let m = self.to_world.map(f64::from);
+        let p = p.map(f64::from);
+        core::array::from_fn(|r| {
+            let at = |c: usize| m.get(r * 4 + c).copied().unwrap_or(0.0);
+            (((at(0) * p[0] + at(1) * p[1]) + at(2) * p[2]) + at(3)) as f32
+        })
     }
 
     /// A box in world space holding the instance of a mesh whose bounds

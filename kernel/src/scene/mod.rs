@@ -32,10 +32,12 @@
 //! ```
 
 mod brute;
+mod closest_point;
 mod instance;
 mod walk;
 
-pub use instance::{inverse_affine, Instance, IDENTITY};
+pub use closest_point::{NotSimilar, SceneClosestPoint};
+pub use instance::{inverse_affine, Instance, IDENTITY, SIMILAR};
 pub use walk::SceneHit;
 
 use crate::blob::wire::{self, Sections, HEADER_LEN};

@@ -50,6 +50,28 @@ pub fn crossings_brute(triangles: &[Triangle], q: [f32; 3], dir: [f32; 3]) -> u3
     })
 }
 
+/// The brute-force signed crossings: the sum over `triangles` of `+1` for
+/// each the ray from `q` along `dir` crosses at `t >= 0` (by the crossing
+/// test) whose normal `(v1 - v0) x (v2 - v0)` points along the ray, `-1`
+/// for each whose normal points against it. The oracle
+/// [`TriangleTree::winding_crossings`](crate::TriangleTree::winding_crossings)
+/// is held to, and the count over a few extra triangles (the caps that
+/// close an open mesh's holes) to add to the tree's.
+#[must_use]
+pub fn winding_crossings_brute(triangles: &[Triangle], q: [f32; 3], dir: [f32; 3]) -> i32 {
+    let ray = Ray {
+        origin: q,
+        tmin: 0.0,
+        dir,
+        tmax: f32::INFINITY,
+    };
+    ShearedRay::new(&ray).map_or(0, |sr| {
+        triangles
+            .iter()
+            .fold(0i32, |s, tri| s.wrapping_add(sr.crossing_sign(tri)))
+    })
+}
+
 /// The brute-force first hits: the first `out.len()` hits of `ray` in
 /// `[tmin, tmax]` over all of `triangles`, sorted by `t` and at equal `t`
 /// by the lower triangle index, written to the front of `out`; returns

@@ -60,10 +60,12 @@ mod spawn;
 mod watertight;
 
 pub(crate) use brute::offer_every_triangle;
-pub use brute::{any_hit_brute, closest_hit_brute, crossings_brute, first_hits_brute};
+pub use brute::{
+    any_hit_brute, closest_hit_brute, crossings_brute, first_hits_brute, winding_crossings_brute,
+};
 pub(crate) use closest::Closest;
 pub(crate) use first::{FirstHits, Ranked};
-pub(crate) use point::{box_distance2, NearestTriangle};
+pub(crate) use point::{box_gaps2, NearestTriangle};
 pub use point::{closest_point_brute, ClosestPoint};
 pub use spawn::SurfacePoint;
 

@@ -184,11 +184,12 @@ pub(crate) fn closest_on_triangle(q: &[f64; 3], tri: &Triangle) -> OnTriangle {
     best.unwrap_or(on(q, a, 0.0, 0.0))
 }
 
-/// The squared distance from `q` to the box `b` (0 inside), in `f64`.
+/// The squared gaps from `q` to the box `b` along x, y and z (0 where
+/// `q` lies within the box's extent), in `f64`.
 #[inline]
 #[must_use]
-pub(crate) fn box_distance2(b: &Bounds, q: &[f64; 3]) -> f64 {
-    let gap = |a: usize| {
+pub(crate) fn box_gaps2(b: &Bounds, q: &[f64; 3]) -> [f64; 3] {
+    core::array::from_fn(|a| {
         let (lo, hi) = (f64::from(b.min[a]), f64::from(b.max[a]));
         let g = if q[a] < lo {
             lo - q[a]
@@ -198,8 +199,16 @@ pub(crate) fn box_distance2(b: &Bounds, q: &[f64; 3]) -> f64 {
             0.0
         };
         g * g
-    };
-    gap(0) + gap(1) + gap(2)
+    })
+}
+
+/// The squared distance from `q` to the box `b` (0 inside), in `f64`: the
+/// sum of [`box_gaps2`] in axis order.
+#[inline]
+#[must_use]
+pub(crate) fn box_distance2(b: &Bounds, q: &[f64; 3]) -> f64 {
+    let g = box_gaps2(b, q);
+    g[0] + g[1] + g[2]
 }
 
 /// The running closest point: smallest squared distance, then lowest

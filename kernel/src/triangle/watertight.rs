@@ -140,6 +140,20 @@ impl ShearedRay {
         exact_t_hits(t, window, tmin, tmax).then_some(TriangleHit { t, ..e })
     }
 
+    /// `+1` if the ray crosses `tri` at `t >= 0` (by
+    /// [`ShearedRay::crossing`]) along the triangle's normal
+    /// `(v1 - v0) x (v2 - v0)`, `-1` against it, 0 if it does not cross:
+    /// the sign of the crossing's determinant, exact under the strict fill
+    /// rule.
+    #[must_use]
+    pub(crate) fn crossing_sign(&self, tri: &Triangle) -> i32 {
+        match self.crossing(tri, 0.0, f32::INFINITY) {
+            Some(h) if h.det < 0.0 => 1,
+            Some(_) => -1,
+            None => 0,
+        }
+    }
+
     /// [`ShearedRay::window`], by the crossing rule when `CROSSING`.
     #[inline(always)]
     fn window_by<const CROSSING: bool>(

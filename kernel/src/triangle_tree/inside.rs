@@ -110,7 +110,42 @@ impl TriangleTree<'_> {
     /// direction.
     #[must_use]
     pub fn crossings(&self, q: [f32; 3], dir: [f32; 3]) -> u32 {
-        let mut count = 0u32;
+        self.crossing_sum(q, dir, |_| 1) as u32
+    }
+
+    /// The signed crossings of the ray from `q` along `dir` (each crossing
+    /// as [`TriangleTree::crossings`] counts it): `+1` for a triangle whose
+    /// normal `(v1 - v0) x (v2 - v0)` points along the ray, `-1` against
+    /// it. For a closed, consistently oriented mesh this is the winding
+    /// number of `q` (`+1` inside a mesh whose normals point out, 0
+    /// outside) along every ray; for an open one it is the winding number
+    /// of the mesh closed by caps over its holes only when the caps are
+    /// counted too (see [`winding_crossings_brute`](crate::winding_crossings_brute)).
+    /// Exactly `winding_crossings_brute` over all triangles; 0 for a
+    /// point or direction with a NaN or infinite coordinate or a zero
+    /// direction.
+    #[must_use]
+    pub fn winding_crossings(&self, q: [f32; 3], dir: [f32; 3]) -> i32 {
+        let ray = Ray {
+            origin: q,
+            tmin: 0.0,
+            dir,
+            tmax: f32::INFINITY,
+        };
+        let Some(sr) = ShearedRay::new(&ray) else {
+            return 0;
+        };
+        self.crossing_sum(q, dir, |prim| {
+            self.triangles
+                .get(prim as usize)
+                .map_or(0, |tri| sr.crossing_sign(tri))
+        })
+    }
+
+    /// The sum of `weight(prim)` over the crossings of the ray from `q`
+    /// along `dir`, each triangle once (module docs), wrapping.
+    fn crossing_sum(&self, q: [f32; 3], dir: [f32; 3], weight: impl Fn(u32) -> i32) -> i32 {
+        let mut sum = 0i32;
         let mut tmin = 0.0f32;
         loop {
             let ray = Ray {
@@ -123,33 +158,72 @@ impl TriangleTree<'_> {
             let mut first = FirstHits::new(&mut out);
             self.first_hits_by::<Hit, STACK, true>(&ray, &mut first, 0);
             let n = first.len();
+            let add = |sum: i32, hits: &[Hit]| {
+                hits.iter().fold(sum, |s, h| s.wrapping_add(weight(h.prim)))
+            };
             let Some(last) = out.last().filter(|_| n == ROUND).map(|h| h.t) else {
-                return count.wrapping_add(n as u32);
+                return add(sum, out.get(..n).unwrap_or(&[]));
             };
             let before = out.iter().filter(|h| h.t < last).count();
             if before > 0 {
-                count = count.wrapping_add(before as u32);
+                sum = add(sum, out.get(..before).unwrap_or(&[]));
                 tmin = last;
             } else {
                 // A round's worth of crossings at one `t` (coincident
                 // surfaces): counted over every triangle, then past it.
-                count = count.wrapping_add(crossings_at(self.triangles, &ray, last));
+                sum = sum.wrapping_add(crossings_at(self.triangles, &ray, last, &weight));
                 tmin = next_up(last);
             }
             if tmin.is_nan() || tmin == f32::INFINITY {
-                return count;
+                return sum;
             }
         }
     }
 }
 
-/// How many of `triangles` `ray` crosses at exactly `t`.
-fn crossings_at(triangles: &[Triangle], ray: &Ray, t: f32) -> u32 {
+/// The sum of `weight(prim)` over the triangles `ray` crosses at
+/// exactly `t`, wrapping.
+fn crossings_at(triangles: &[Triangle], ray: &Ray, t: f32, weight: impl Fn(u32) -> i32) -> i32 {
     let Some(sr) = ShearedRay::new(ray) else {
         return 0;
     };
-    triangles
-        .iter()
-        .filter(|tri| sr.crossing(tri, t, t).is_some())
-        .count() as u32
+    (0u32..)
+        .zip(triangles)
+        .filter(|(_, tri)| sr.crossing(tri, t, t).is_some())
+        .fold(0i32, |s, (i, _)| s.wrapping_add(weight(i)))
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::triangle::{winding_crossings_brute, Triangle};
+
+    /// A tetrahedron with its normals pointing out.
+    const TETRA: [Triangle; 4] = {
+        let (o, x, y, z) = (
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+        );
+        [
+            Triangle { v: [o, y, x] },
+            Triangle { v: [o, x, z] },
+            Triangle { v: [o, z, y] },
+            Triangle { v: [x, y, z] },
+        ]
+    };
+
+    #[test]
+    fn winding_crossings_are_one_inside_outward_normals() {
+        let inside = [0.1, 0.2, 0.15];
+        for dir in super::INSIDE_RAYS {
+            assert_eq!(winding_crossings_brute(&TETRA, inside, dir), 1, "{dir:?}");
+            let flipped = TETRA.map(|t| Triangle {
+                v: [t.v[0], t.v[2], t.v[1]],
+            });
+            assert_eq!(winding_crossings_brute(&flipped, inside, dir), -1);
+            // Outside: in and out again, or no crossing.
+            assert_eq!(winding_crossings_brute(&TETRA, [-0.5, -0.5, -0.5], dir), 0);
+        }
+    }
 }

@@ -1,4 +1,4 @@
-//! `kdray distance TREE POINTS -o OUT [--signed] [--votes N]
+//! `kdray distance TREE POINTS -o OUT [--signed [--votes N | --winding]]
 //! [--max-distance D] [--threads N]`: the closest point of a mesh to every
 //! query point, with its distance (signed: negative inside), as a `.dist`
 //! file (docs/formats.md).
@@ -22,13 +22,17 @@ pub(crate) struct Args {
     #[arg(short, long)]
     output: PathBuf,
     /// Sign the distances: negative inside the mesh (by the parity of a
-    /// ray's crossings, or the majority of --votes rays).
+    /// ray's crossings, the majority of --votes rays, or --winding).
     #[arg(long)]
     signed: bool,
     /// With --signed: inside by the majority of this many rays (1 to 7),
     /// for open or self-intersecting meshes.
-    #[arg(long, requires = "signed")]
+    #[arg(long, requires = "signed", conflicts_with = "winding")]
     votes: Option<u32>,
+    /// With --signed: inside where the generalized winding number exceeds
+    /// one half (open meshes: the holes are closed by caps).
+    #[arg(long, requires = "signed")]
+    winding: bool,
     /// Only triangles within this distance count; beyond it a query gets
     /// no point (triangle 0xFFFFFFFF, distance +inf).
     #[arg(long)]
@@ -49,6 +53,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     }
     let sign = match (a.signed, a.votes) {
         (false, _) => None,
+        (true, None) if a.winding => Some(InsideRule::Winding),
         (true, None) => Some(InsideRule::Parity),
         (true, Some(n @ 1..=7)) => Some(InsideRule::Vote(n)),
         (true, Some(n)) => return Err(format!("--votes {n} must be 1 to 7").into()),

@@ -106,6 +106,14 @@ def _nsamples(nsamples: int) -> int:
     return int(nsamples)
 
 
+def _inside_rule(nsamples: int, winding: bool) -> tuple[int, bool]:
+    """``nsamples`` and ``winding`` checked together: the winding number takes no rays."""
+    n = _nsamples(nsamples)
+    if winding and n != 1:
+        raise ValueError(f"winding=True decides by the winding number, not by rays: nsamples must be 1, not {n}")
+    return n, bool(winding)
+
+
 def _rays(
     rays: Any,
     origins: Any,
@@ -436,7 +444,7 @@ class TriangleTree(_RayQueries):
         return self._tree.distances(q, _nthreads(nthreads)).reshape(lead)  # type: ignore[no-any-return]
 
     def compute_signed_distance(
-        self, query_points: npt.ArrayLike, nthreads: int = 0, nsamples: int = 1
+        self, query_points: npt.ArrayLike, nthreads: int = 0, nsamples: int = 1, winding: bool = False
     ) -> np.ndarray:
         """:meth:`compute_distance`, negative inside the mesh: float32, of the leading shape.
 
@@ -444,11 +452,11 @@ class TriangleTree(_RayQueries):
         on the surface (distance 0) may get either sign.
         """
         q, lead = _points(query_points)
-        rule = _nsamples(nsamples)
-        return self._tree.signed_distances(q, _nthreads(nthreads), rule).reshape(lead)  # type: ignore[no-any-return]
+        n, w = _inside_rule(nsamples, winding)
+        return self._tree.signed_distances(q, _nthreads(nthreads), n, w).reshape(lead)  # type: ignore[no-any-return]
 
     def compute_occupancy(
-        self, query_points: npt.ArrayLike, nthreads: int = 0, nsamples: int = 1
+        self, query_points: npt.ArrayLike, nthreads: int = 0, nsamples: int = 1, winding: bool = False
     ) -> np.ndarray:
         """Whether each query ``(..., 3)`` is inside the mesh: float32 1 or 0 (Open3D's), of the leading shape.
 
@@ -456,12 +464,15 @@ class TriangleTree(_RayQueries):
         point (closed meshes; a ray through an edge or a vertex is counted
         once). ``nsamples`` 3, 5 or 7: the majority of that many rays in
         fixed directions, each by parity (for open or self-intersecting
-        meshes). A point outside the tree's bounds, or with a NaN or
-        infinite coordinate, is outside.
+        meshes). ``winding=True`` (kdray's, with ``nsamples=1``): the
+        generalized winding number above one half in magnitude, the mesh's
+        holes closed by small caps (open meshes with consistently oriented
+        triangles; docs/distance.md). A point outside the tree's bounds, or
+        with a NaN or infinite coordinate, is outside.
         """
         q, lead = _points(query_points)
-        rule = _nsamples(nsamples)
-        inside = self._tree.occupancy(q, _nthreads(nthreads), rule)
+        n, w = _inside_rule(nsamples, winding)
+        inside = self._tree.occupancy(q, _nthreads(nthreads), n, w)
         return inside.astype(_F32).reshape(lead)  # type: ignore[no-any-return]
 
     def __reduce_ex__(self, protocol: Any) -> tuple[Any, tuple[Any, ...]]:

@@ -25,7 +25,7 @@ from typing import Any
 import dask.array as da
 import numpy as np
 
-from . import KDTree, Scene, TriangleTree, _nsamples
+from . import KDTree, Scene, TriangleTree, _inside_rule
 
 __all__ = [
     "cast_rays",
@@ -193,24 +193,26 @@ def compute_distance(tree: TriangleTree, query_points: Any, nthreads: int = 0) -
     return _by_row(_points(tree, query_points), tree, "compute_distance", (nthreads,), np.float32)
 
 
-def _inside(method: str, tree: TriangleTree, query_points: Any, nthreads: int, nsamples: int) -> Any:
-    """A call that takes ``nsamples`` (the inside rule), checked before any block runs."""
+def _inside(
+    method: str, tree: TriangleTree, query_points: Any, nthreads: int, nsamples: int, winding: bool
+) -> Any:
+    """A call that takes ``nsamples`` and ``winding`` (the inside rule), checked before any block runs."""
     q = _points(tree, query_points)
-    return _by_row(q, tree, method, (nthreads, _nsamples(nsamples)), np.float32)
+    return _by_row(q, tree, method, (nthreads, *_inside_rule(nsamples, winding)), np.float32)
 
 
 def compute_signed_distance(
-    tree: TriangleTree, query_points: Any, nthreads: int = 0, nsamples: int = 1
+    tree: TriangleTree, query_points: Any, nthreads: int = 0, nsamples: int = 1, winding: bool = False
 ) -> Any:
     """``tree.compute_signed_distance`` over a dask array ``(N, 3)`` chunked by rows: ``(N,)`` float32."""
-    return _inside("compute_signed_distance", tree, query_points, nthreads, nsamples)
+    return _inside("compute_signed_distance", tree, query_points, nthreads, nsamples, winding)
 
 
 def compute_occupancy(
-    tree: TriangleTree, query_points: Any, nthreads: int = 0, nsamples: int = 1
+    tree: TriangleTree, query_points: Any, nthreads: int = 0, nsamples: int = 1, winding: bool = False
 ) -> Any:
     """``tree.compute_occupancy`` over a dask array ``(N, 3)`` chunked by rows: ``(N,)`` float32 0 or 1."""
-    return _inside("compute_occupancy", tree, query_points, nthreads, nsamples)
+    return _inside("compute_occupancy", tree, query_points, nthreads, nsamples, winding)
 
 
 def _field(block: np.ndarray, name: str) -> np.ndarray:

@@ -21,11 +21,16 @@ pub(crate) fn point_slice<'a>(points: &'a PyReadonlyArray2<'_, f32>) -> PyResult
 }
 
 /// Open3D's `nsamples` as the inside rule: 1 is the parity of one ray,
-/// an odd count up to 7 the majority of that many rays.
-pub(crate) fn inside_rule(nsamples: u32) -> PyResult<InsideRule> {
-    match nsamples {
-        1 => Ok(InsideRule::Parity),
-        3..=MAX_SAMPLES if nsamples % 2 == 1 => Ok(InsideRule::Vote(nsamples)),
+/// an odd count up to 7 the majority of that many rays; `winding` (with
+/// `nsamples` 1) the generalized winding number, for open meshes.
+pub(crate) fn inside_rule(nsamples: u32, winding: bool) -> PyResult<InsideRule> {
+    match (nsamples, winding) {
+        (1, true) => Ok(InsideRule::Winding),
+        (_, true) => Err(PyValueError::new_err(format!(
+            "winding=True decides by the winding number, not by rays: nsamples must be 1, not {nsamples}"
+        ))),
+        (1, false) => Ok(InsideRule::Parity),
+        (3..=MAX_SAMPLES, false) if nsamples % 2 == 1 => Ok(InsideRule::Vote(nsamples)),
         _ => Err(PyValueError::new_err(format!(
             "nsamples must be an odd number from 1 to {MAX_SAMPLES}, not {nsamples}"
         ))),

@@ -292,30 +292,33 @@ impl TriangleTree {
     }
 
     /// The signed distance of each query: negative inside by the rule of
-    /// `nsamples` (1: one ray's parity; 3, 5, 7: their majority).
+    /// `nsamples` (1: one ray's parity; 3, 5, 7: their majority) or of
+    /// `winding` (the generalized winding number).
     fn signed_distances<'py>(
         &self,
         py: Python<'py>,
         points: PyReadonlyArray2<'py, f32>,
         nthreads: usize,
         nsamples: u32,
+        winding: bool,
     ) -> PyResult<Bound<'py, PyArray1<f32>>> {
-        let rule = inside_rule(nsamples)?;
+        let rule = inside_rule(nsamples, winding)?;
         let tree = self.held.tree().tree();
         answers(py, &tree, &points, nthreads, 0.0, |t, q, out| {
             tools::signed_distances(t, q, rule, out);
         })
     }
 
-    /// Whether each query is inside by the rule of `nsamples`.
+    /// Whether each query is inside by the rule of `nsamples` or `winding`.
     fn occupancy<'py>(
         &self,
         py: Python<'py>,
         points: PyReadonlyArray2<'py, f32>,
         nthreads: usize,
         nsamples: u32,
+        winding: bool,
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
-        let rule = inside_rule(nsamples)?;
+        let rule = inside_rule(nsamples, winding)?;
         let tree = self.held.tree().tree();
         answers(py, &tree, &points, nthreads, false, |t, q, out| {
             tools::occupancy(t, q, rule, out);

@@ -51,6 +51,7 @@ def check_distances(tree: kdray.TriangleTree, q: np.ndarray) -> None:
     for name, kwargs in (
         ("compute_distance", {}),
         ("compute_signed_distance", {"nsamples": 3}),
+        ("compute_signed_distance", {"winding": True}),
         ("compute_occupancy", {"nsamples": 1}),
     ):
         g = getattr(kd, name)(tree, dq, **kwargs).compute()

@@ -313,6 +313,12 @@ def test_votes_on_an_open_mesh() -> None:
     # One ray through a hole misjudges a point; the majority of seven rarely does.
     assert errors[1] > 0
     assert errors[7] < errors[1]
+    # The winding number with the holes capped misjudges none, inside or out.
+    assert (tree.compute_occupancy(q, winding=True) == 1).all()
+    far = (rng.random((500, 3)) * 2 + 1.2).astype(np.float32)
+    assert (tree.compute_occupancy(far, winding=True) == 0).all()
+    d = tree.compute_distance(q)
+    np.testing.assert_array_equal(bits(tree.compute_signed_distance(q, winding=True)), bits(-d))
 
 
 # --- against other tools -------------------------------------------------
@@ -328,7 +334,13 @@ def test_equals_the_cli(tmp_path: Path) -> None:
     tree.save(blob)
     q = queries_for(tree, 3000, 8)
     q.tofile(pts)
-    for extra, nsamples in (([], None), (["--signed"], 1), (["--signed", "--votes", "5"], 5)):
+    cases: tuple[tuple[list[str], int | None, bool], ...] = (
+        ([], None, False),
+        (["--signed"], 1, False),
+        (["--signed", "--votes", "5"], 5, False),
+        (["--signed", "--winding"], 1, True),
+    )
+    for extra, nsamples, winding in cases:
         subprocess.run([cli, "distance", blob, pts, "-o", out, *extra], check=True, capture_output=True)
         rec = np.fromfile(out, dtype=np.float32).reshape(-1, 7)
         cp = tree.compute_closest_points(q)
@@ -338,7 +350,7 @@ def test_equals_the_cli(tmp_path: Path) -> None:
         d = (
             tree.compute_distance(q)
             if nsamples is None
-            else tree.compute_signed_distance(q, nsamples=nsamples)
+            else tree.compute_signed_distance(q, nsamples=nsamples, winding=winding)
         )
         np.testing.assert_array_equal(bits(d), bits(rec[:, 6]))
 
@@ -401,6 +413,7 @@ BAD = [
     ("nsamples huge", lambda: TREE.compute_signed_distance(Q, nsamples=2**70 + 1), "nsamples"),
     ("nsamples float", lambda: TREE.compute_occupancy(Q, nsamples=3.0), "nsamples"),  # type: ignore[arg-type]
     ("nsamples bool", lambda: TREE.compute_occupancy(Q, nsamples=True), "nsamples"),
+    ("winding with rays", lambda: TREE.compute_signed_distance(Q, nsamples=3, winding=True), "winding"),
 ]
 
 
@@ -413,7 +426,9 @@ def test_bad_input_is_refused(case: tuple[str, object, str]) -> None:
 
 def test_compiled_layer_refuses_what_the_python_layer_would() -> None:
     with pytest.raises(ValueError, match="nsamples"):
-        TREE._tree.occupancy(np.zeros((2, 3), np.float32), 0, 4)
+        TREE._tree.occupancy(np.zeros((2, 3), np.float32), 0, 4, False)
+    with pytest.raises(ValueError, match="winding"):
+        TREE._tree.signed_distances(np.zeros((2, 3), np.float32), 0, 3, True)
     with pytest.raises(ValueError, match="query_points"):
         TREE._tree.distances(np.zeros((2, 4), np.float32), 0)
     with pytest.raises(ValueError, match="query_points.*C-contiguous"):

@@ -3,7 +3,7 @@
 Usage (pinned, nothing else compiling; the peers' venv from
 ../shared/anchors/python/setup.sh):
 
-    /work/bin/slot --quiet taskset -c 0 PY benches/distance_peers.py MESH.obj KDRAY [N [RULE]]
+    taskset -c 0 PY benches/distance_peers.py MESH.obj KDRAY [N [RULE]]
 
 KDRAY is the release `kdray` binary. RULE is kdray's sign rule for the
 signed distances: `winding` (the default, `--signed --winding`) or

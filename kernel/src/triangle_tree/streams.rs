@@ -1,0 +1,535 @@
+//! Ray streams: a block of rays walked down the tree together (Wald et
+//! al., "SIMD Ray Stream Tracing", 2007; Barringer & Akenine-Möller,
+//! "Dynamic Ray Stream Traversal", 2014).
+//!
+//! A stream is the list of rays that reach one node, each with its own
+//! interval `[lo, hi]` (ids and intervals in the caller's scratch memory).
+//! At an interior node every ray of the stream is tested against the one
+//! split plane (`t_split`, the single walk's slack rule) with no branch per
+//! ray, and written to the below child's stream, the above child's, or
+//! both, each with its interval narrowed at `t_split`. The child that is
+//! the near child of most of the stream's rays is walked first (back to
+//! front, the far one, for any hit); the other waits on a stack of
+//! streams, and when it is popped each ray whose best hit lies before the
+//! cell (more than the slack) drops out, as a popped far cell does in the
+//! single walk. At a leaf each ray of the stream tests the leaf's
+//! triangles. A stream of fewer than [`SINGLE_BELOW`] rays, or one that
+//! finds no room in the scratch memory, goes on as single rays from its
+//! node (`walk.rs`), each with its own interval: the per-ray fall-back of
+//! dynamic ray stream traversal.
+//!
+//! Each ray visits every cell its single walk visits (the same tests on
+//! the same numbers), perhaps more (a far cell before a near one, when it
+//! is in the minority), and the tie rule does not depend on the order hits
+//! arrive in: each answer is its single ray's, bit for bit.
+
+use super::cell_ray::CellRay;
+use super::walk::{AnyVisit, ClosestVisit, LeafIter, Visit, STACK};
+use super::TriangleTree;
+use crate::blob::MAX_DEPTH;
+use crate::geometry::{Hit, Ray};
+use crate::lanes::Span;
+use crate::triangle::{dominant_axis, Closest, ShearedRay};
+
+/// The rays walked as one stream block (a block of the batch calls).
+pub(crate) const STREAM_RAYS: usize = 256;
+
+/// Streams of fewer rays go on as single rays from their node: the
+/// stream's bookkeeping costs more than it saves there.
+pub(crate) const SINGLE_BELOW: usize = 4;
+
+/// The scratch words ([`crate::Batch::scratch`]) a stream block needs:
+/// room for 16 stream entries (ray id, `lo`, `hi`: 12 bytes) a ray, 48 KiB.
+/// Streams that find no room go on as single rays.
+pub const STREAM_SCRATCH_WORDS: usize = STREAM_RAYS * 16 * 3 / 2;
+
+/// A stream waiting on the stack: the node it enters and where its
+/// entries lie.
+#[derive(Clone, Copy, Default)]
+struct Frame {
+    node: u32,
+    start: u32,
+    len: u32,
+}
+
+/// The numbers every step reads of each ray of a block, by ray id.
+struct Geometry {
+    org: [[f32; STREAM_RAYS]; 3],
+    inv: [[f32; STREAM_RAYS]; 3],
+    /// The above-first bit of each axis (x in bit 0), `CellRay`'s.
+    above_first: [u8; STREAM_RAYS],
+    /// Twice the slack.
+    s2: [f32; STREAM_RAYS],
+    /// Cells starting after this cannot hold a better answer.
+    cutoff: [f32; STREAM_RAYS],
+}
+
+/// The stream entries in scratch memory: ray ids and intervals.
+struct Entries<'s> {
+    ids: &'s mut [u32],
+    lo: &'s mut [f32],
+    hi: &'s mut [f32],
+}
+
+impl Entries<'_> {
+    /// Carves `scratch` into three arrays of equal length.
+    fn new(scratch: &mut [u64]) -> Entries<'_> {
+        let words: &mut [u32] = bytemuck::cast_slice_mut(scratch);
+        let n = words.len() / 3;
+        let (ids, rest) = words.split_at_mut(n);
+        let (lo, rest) = rest.split_at_mut(n);
+        let hi = rest.get_mut(..n).unwrap_or(&mut []);
+        Entries {
+            ids,
+            lo: bytemuck::cast_slice_mut(lo),
+            hi: bytemuck::cast_slice_mut(hi),
+        }
+    }
+
+    /// Entry `i`, if in range.
+    #[inline(always)]
+    fn get(&self, i: usize) -> Option<(usize, f32, f32)> {
+        Some((
+            *self.ids.get(i)? as usize,
+            *self.lo.get(i)?,
+            *self.hi.get(i)?,
+        ))
+    }
+
+    /// Writes entry `i` (nothing when out of range).
+    #[inline(always)]
+    fn set(&mut self, i: usize, (id, lo, hi): (u32, f32, f32)) {
+        if let (Some(a), Some(b), Some(c)) =
+            (self.ids.get_mut(i), self.lo.get_mut(i), self.hi.get_mut(i))
+        {
+            (*a, *b, *c) = (id, lo, hi);
+        }
+    }
+
+    /// Moves `n` entries from `from` down to `to` (`to <= from`).
+    #[inline(always)]
+    fn move_down(&mut self, from: usize, to: usize, n: usize) {
+        if to == from {
+            return;
+        }
+        for k in 0..n {
+            if let Some((id, lo, hi)) = self.get(from + k) {
+                self.set(to + k, (id as u32, lo, hi));
+            }
+        }
+    }
+}
+
+/// What a stream walk asks of each ray: the single walks' searches.
+pub(super) trait StreamQuery {
+    /// One ray's state and answer.
+    type State: Copy;
+    /// Back to front ([`Visit::FAR_FIRST`]).
+    const FAR_FIRST: bool;
+    /// Before the walk.
+    fn start(ray: &Ray) -> Self::State;
+    /// The end of the ray's interval ([`Visit::bound`]); `-inf` once the
+    /// answer is known.
+    fn bound(state: &Self::State, ray: &Ray) -> f32;
+    /// Tests a leaf's primitives.
+    fn leaf(
+        tree: &TriangleTree<'_>,
+        sr: &ShearedRay,
+        ray: &Ray,
+        s: &mut Self::State,
+        prims: LeafIter<'_>,
+    );
+    /// The single walk from `start` = `(node, lo, hi)` on.
+    fn single(
+        tree: &TriangleTree<'_>,
+        sr: &ShearedRay,
+        cr: &CellRay,
+        ray: &Ray,
+        s: &mut Self::State,
+        start: (u32, f32, f32),
+    );
+}
+
+/// The closest hit.
+pub(super) struct ClosestStream;
+
+impl StreamQuery for ClosestStream {
+    type State = Closest;
+    const FAR_FIRST: bool = false;
+    #[inline(always)]
+    fn start(ray: &Ray) -> Closest {
+        Closest::new(ray.tmax)
+    }
+    #[inline(always)]
+    fn bound(s: &Closest, _: &Ray) -> f32 {
+        s.t
+    }
+    #[inline(always)]
+    fn leaf(
+        tree: &TriangleTree<'_>,
+        sr: &ShearedRay,
+        ray: &Ray,
+        s: &mut Closest,
+        prims: LeafIter<'_>,
+    ) {
+        let mut v = ClosestVisit {
+            sr,
+            tmin: ray.tmin,
+            best: s,
+        };
+        Visit::<()>::leaf(&mut v, tree.triangles, prims, &mut ());
+    }
+    #[inline(always)]
+    fn single(
+        tree: &TriangleTree<'_>,
+        sr: &ShearedRay,
+        cr: &CellRay,
+        ray: &Ray,
+        s: &mut Closest,
+        start: (u32, f32, f32),
+    ) {
+        tree.closest_from::<(), STACK>(sr, cr, ray.tmin, s, start, &mut ());
+    }
+}
+
+/// Any hit.
+pub(super) struct AnyStream;
+
+impl StreamQuery for AnyStream {
+    type State = bool;
+    const FAR_FIRST: bool = true;
+    #[inline(always)]
+    fn start(_: &Ray) -> bool {
+        false
+    }
+    #[inline(always)]
+    fn bound(s: &bool, ray: &Ray) -> f32 {
+        if *s {
+            f32::NEG_INFINITY
+        } else {
+            ray.tmax
+        }
+    }
+    #[inline(always)]
+    fn leaf(
+        tree: &TriangleTree<'_>,
+        sr: &ShearedRay,
+        ray: &Ray,
+        s: &mut bool,
+        prims: LeafIter<'_>,
+    ) {
+        let mut v = AnyVisit {
+            sr,
+            tmin: ray.tmin,
+            tmax: ray.tmax,
+            occluder: crate::geometry::MISS,
+        };
+        *s |= Visit::<()>::leaf(&mut v, tree.triangles, prims, &mut ());
+    }
+    #[inline(always)]
+    fn single(
+        tree: &TriangleTree<'_>,
+        sr: &ShearedRay,
+        cr: &CellRay,
+        ray: &Ray,
+        s: &mut bool,
+        start: (u32, f32, f32),
+    ) {
+        *s |= tree
+            .any_from::<(), STACK>(sr, cr, (ray.tmin, ray.tmax), start, &mut ())
+            .is_some();
+    }
+}
+
+/// A ray prepared as a stream member, or nothing for one that misses the
+/// scene or is invalid.
+const NO_RAY: ShearedRay = ShearedRay {
+    org: [0.0; 3],
+    dir: [0.0; 3],
+    k: [0, 1, 2],
+    s: [0.0; 3],
+};
+
+impl TriangleTree<'_> {
+    /// Traces `rays` (at most [`STREAM_RAYS`]; more are left alone) as
+    /// streams, each answer into `out` (`answer(state, sr)`), with
+    /// `scratch` for the streams' entries.
+    #[inline(always)]
+    pub(super) fn streamed<Q: StreamQuery>(
+        &self,
+        rays: &[Ray],
+        scratch: &mut [u64],
+        mut answer: impl FnMut(usize, &mut Q::State, Option<&ShearedRay>),
+    ) {
+        let rays = rays.get(..STREAM_RAYS).unwrap_or(rays);
+        let mut g = Geometry {
+            org: [[0.0; STREAM_RAYS]; 3],
+            inv: [[0.0; STREAM_RAYS]; 3],
+            above_first: [0; STREAM_RAYS],
+            s2: [0.0; STREAM_RAYS],
+            cutoff: [0.0; STREAM_RAYS],
+        };
+        let mut srs = [NO_RAY; STREAM_RAYS];
+        let mut states = [Q::start(&Ray::new(Default::default(), Default::default())); STREAM_RAYS];
+        let mut live = [false; STREAM_RAYS];
+        let mut e = Entries::new(scratch);
+        let mut n = 0usize;
+        for (id, ray) in rays.iter().enumerate() {
+            let Some(cr) = CellRay::new(ray, dominant_axis(&ray.dir), &self.bounds) else {
+                continue;
+            };
+            let Some(sr) = ShearedRay::new(ray) else {
+                continue;
+            };
+            let (lo, hi) = cr.start();
+            if n >= e.ids.len() {
+                // No room: this ray alone.
+                if let (Some(s), Some(l)) = (states.get_mut(id), live.get_mut(id)) {
+                    *s = Q::start(ray);
+                    Q::single(self, &sr, &cr, ray, s, (0, lo, hi));
+                    *l = true;
+                }
+                if let Some(x) = srs.get_mut(id) {
+                    *x = sr;
+                }
+                continue;
+            }
+            for a in 0..3 {
+                if let (Some(o), Some(i)) = (g.org[a].get_mut(id), g.inv[a].get_mut(id)) {
+                    (*o, *i) = (cr.org[a], cr.inv[a]);
+                }
+            }
+            let s2 = cr.slack + cr.slack;
+            if let (Some(af), Some(s), Some(c), Some(st), Some(l), Some(x)) = (
+                g.above_first.get_mut(id),
+                g.s2.get_mut(id),
+                g.cutoff.get_mut(id),
+                states.get_mut(id),
+                live.get_mut(id),
+                srs.get_mut(id),
+            ) {
+                *af = (cr.above_first[0] | cr.above_first[1] << 1 | cr.above_first[2] << 2) as u8;
+                *s = s2;
+                *st = Q::start(ray);
+                *c = Q::bound(st, ray).cutoff(s2);
+                *l = true;
+                *x = sr;
+                e.set(n, (id as u32, lo, hi));
+                n += 1;
+            }
+        }
+        self.walk_streams::<Q>(rays, &mut g, &srs, &mut states, &mut e, n);
+        for (id, ((s, sr), l)) in states
+            .iter_mut()
+            .zip(&srs)
+            .zip(&live)
+            .enumerate()
+            .take(rays.len())
+        {
+            answer(id, s, l.then_some(sr));
+        }
+    }
+
+    /// The walk of the stream of the `n` first entries of `e` from the root.
+    #[inline(always)]
+    fn walk_streams<Q: StreamQuery>(
+        &self,
+        rays: &[Ray],
+        g: &mut Geometry,
+        srs: &[ShearedRay; STREAM_RAYS],
+        states: &mut [Q::State; STREAM_RAYS],
+        e: &mut Entries<'_>,
+        n: usize,
+    ) {
+        let cap = e.ids.len();
+        let mut frames = [Frame::default(); MAX_DEPTH as usize + 1];
+        frames[0] = Frame {
+            node: 0,
+            start: 0,
+            len: n as u32,
+        };
+        let mut fp = 1usize;
+        // Each ray of entries `from..to` on its own from `node`.
+        let singles = |from: usize,
+                       to: usize,
+                       node: u32,
+                       e: &Entries<'_>,
+                       states: &mut [Q::State; STREAM_RAYS],
+                       g: &mut Geometry| {
+            for i in from..to {
+                let Some((id, lo, hi)) = e.get(i) else {
+                    continue;
+                };
+                let (Some(ray), Some(sr), Some(s)) =
+                    (rays.get(id), srs.get(id), states.get_mut(id))
+                else {
+                    continue;
+                };
+                if let Some(cr) = CellRay::new(ray, sr.k[2], &self.bounds) {
+                    Q::single(self, sr, &cr, ray, s, (node, lo, hi));
+                }
+                if let (Some(c), Some(s2)) = (g.cutoff.get_mut(id), g.s2.get(id)) {
+                    *c = Q::bound(s, ray).cutoff(*s2);
+                }
+            }
+        };
+        while fp > 0 {
+            fp -= 1;
+            let Some(&f) = frames.get(fp) else {
+                return;
+            };
+            let start = f.start as usize;
+            // Drop the rays whose best hit lies before the cell.
+            let mut len = 0usize;
+            for i in start..start + f.len as usize {
+                let Some((id, lo, hi)) = e.get(i) else {
+                    continue;
+                };
+                let c = g.cutoff.get(id).copied().unwrap_or(f32::NEG_INFINITY);
+                e.set(start + len, (id as u32, lo, Span::min(hi, c)));
+                len += usize::from(lo <= c);
+            }
+            let mut at = f.node;
+            let mut start = start;
+            loop {
+                let Some(&node) = self.nodes.get(at as usize) else {
+                    break;
+                };
+                let top = start + len;
+                if len == 0 {
+                    break;
+                }
+                if len < SINGLE_BELOW || (!node.is_leaf() && top + 2 * len > cap) {
+                    singles(start, top, at, e, states, g);
+                    break;
+                }
+                if node.is_leaf() {
+                    if node.upper() != 0 {
+                        for i in start..top {
+                            let Some((id, _, _)) = e.get(i) else {
+                                continue;
+                            };
+                            let (Some(ray), Some(sr), Some(s)) =
+                                (rays.get(id), srs.get(id), states.get_mut(id))
+                            else {
+                                continue;
+                            };
+                            let prims = LeafIter::new(self.leaf_prims(node));
+                            Q::leaf(self, sr, ray, s, prims);
+                            if let (Some(c), Some(s2)) = (g.cutoff.get_mut(id), g.s2.get(id)) {
+                                *c = Q::bound(s, ray).cutoff(*s2);
+                            }
+                        }
+                    }
+                    break;
+                }
+                // Compute parametric distance along each ray to the split plane.
+                let axis = node.axis_bits().min(2);
+                let split = node.split();
+                let below = node.upper() as usize;
+                let (Some(nb), Some(na)) = (self.nodes.get(below), self.nodes.get(below + 1))
+                else {
+                    break;
+                };
+                // Whether each child holds anything (an empty cell is skipped here).
+                let keep = [
+                    usize::from(!nb.is_empty_leaf()),
+                    usize::from(!na.is_empty_leaf()),
+                ];
+                let base = [top, top + len];
+                let (mut k, mut votes) = ([0usize; 2], 0usize);
+                let (org, inv) = (&g.org[axis], &g.inv[axis]);
+                for i in start..top {
+                    let Some((id, lo, hi)) = e.get(i) else {
+                        continue;
+                    };
+                    let (Some(&o), Some(&v), Some(&af), Some(&s2)) = (
+                        org.get(id),
+                        inv.get(id),
+                        g.above_first.get(id),
+                        g.s2.get(id),
+                    ) else {
+                        continue;
+                    };
+                    let t_split = (split - o) * v;
+                    // The near child: 0 (below) or 1 (above).
+                    let near = usize::from(af >> axis & 1);
+                    let far = near ^ 1;
+                    // As `split_step`: "not outside", so a NaN t_split visits both.
+                    #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must visit
+                    let (vn, vf) = (usize::from(!(t_split < lo)), usize::from(!(t_split > hi)));
+                    let id = id as u32;
+                    let (kn, kf) = (k[near], k[far]);
+                    e.set(base[near] + kn, (id, lo, hi.near_hi(t_split, s2)));
+                    e.set(base[far] + kf, (id, lo.far_lo(t_split, s2), hi));
+                    k[near] = kn + (vn & keep[near]);
+                    k[far] = kf + (vf & keep[far]);
+                    votes += near;
+                }
+                // The child most rays enter first (or last, back to front)
+                // is walked now, the other waits.
+                let above_now = (votes * 2 > len) != Q::FAR_FIRST;
+                let (now, later) = if above_now { (1, 0) } else { (0, 1) };
+                let (n_now, n_later) = (k[now], k[later]);
+                e.move_down(base[later], start, n_later);
+                e.move_down(base[now], start + n_later, n_now);
+                if n_later > 0 {
+                    if let Some(slot) = frames.get_mut(fp) {
+                        *slot = Frame {
+                            node: (below + later) as u32,
+                            start: start as u32,
+                            len: n_later as u32,
+                        };
+                        fp += 1;
+                    } else {
+                        // Deeper than MAX_DEPTH: only an unchecked, invalid blob.
+                        return;
+                    }
+                }
+                at = (below + now) as u32;
+                start += n_later;
+                len = n_now;
+            }
+        }
+    }
+
+    /// [`crate::TriangleTree::closest_hits`] as streams, blocks of
+    /// [`STREAM_RAYS`].
+    pub(crate) fn closest_hits_streamed(
+        &self,
+        rays: &[Ray],
+        hits: &mut [Hit],
+        scratch: &mut [u64],
+    ) {
+        for (rays, hits) in rays.chunks(STREAM_RAYS).zip(hits.chunks_mut(STREAM_RAYS)) {
+            self.streamed::<ClosestStream>(rays, scratch, |i, best, sr| {
+                if let Some(h) = hits.get_mut(i) {
+                    *h = match sr {
+                        Some(sr) => best.hit(sr, self.triangles),
+                        None => Hit::MISS,
+                    };
+                }
+            });
+        }
+    }
+
+    /// [`crate::TriangleTree::any_hits`] as streams, blocks of
+    /// [`STREAM_RAYS`].
+    pub(crate) fn any_hits_streamed(
+        &self,
+        rays: &[Ray],
+        occluded: &mut [bool],
+        scratch: &mut [u64],
+    ) {
+        for (rays, occ) in rays
+            .chunks(STREAM_RAYS)
+            .zip(occluded.chunks_mut(STREAM_RAYS))
+        {
+            self.streamed::<AnyStream>(rays, scratch, |i, s, sr| {
+                if let Some(o) = occ.get_mut(i) {
+                    *o = sr.is_some() && *s;
+                }
+            });
+        }
+    }
+}

@@ -9,19 +9,17 @@
 //! ```sh
 //! taskset -c 0 cargo bench --bench lean
 //! # instructions a ray (one variant, one mesh, few rays):
-//! KDRAY_LEAN=lean KDRAY_LEAN_MESH=teapot KDRAY_LEAN_RAYS=16384 valgrind --tool=callgrind \
+//! KDRAY_BENCH_CACHE=/tmp KDRAY_LEAN=lean KDRAY_LEAN_MESH=teapot KDRAY_LEAN_RAYS=16384 valgrind --tool=callgrind \
 //!   --collect-atstart=no --toggle-collect='*trace_rays*' target/release/deps/lean-*
 //! ```
 //! `KDRAY_LEAN=lean|tree` runs only that walk, `KDRAY_LEAN_MESH` only that
 //! mesh (`stanford-bunny`, `teapot`, `sponza`), `KDRAY_LEAN_RAYS` sets the
-//! number of rays of each set (65536), `KDRAY_LEAN_CACHE` a folder to
+//! number of rays of each set (65536), `KDRAY_BENCH_CACHE` a folder to
 //! keep the built trees in.
 
 mod common;
 
 use kdray::kernel::{Node, Ray, Triangle, TriangleTree};
-use kdray::tools::blob::{write_triangle_tree, Blob};
-use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use kdray::tools::camera::{random_rays, Camera};
 use std::hint::black_box;
 use std::time::Instant;
@@ -180,22 +178,7 @@ fn main() {
         if mesh.as_deref().is_some_and(|m| m != name) {
             continue;
         }
-        // Built once, kept in `KDRAY_LEAN_CACHE` when given (a build under
-        // callgrind takes minutes).
-        let cached = std::env::var("KDRAY_LEAN_CACHE")
-            .ok()
-            .map(|d| std::path::PathBuf::from(d).join(format!("{name}.kdt")));
-        let blob = match cached.as_deref().map(Blob::read) {
-            Some(Ok(b)) => b,
-            _ => {
-                let built = build(&tris, BuilderKind::default(), &BuildParams::default()).unwrap();
-                let b = write_triangle_tree(&built, &tris).expect("the bench tree fits a blob");
-                if let Some(p) = &cached {
-                    std::fs::write(p, b.as_bytes()).expect("the cache folder is writable");
-                }
-                b
-            }
-        };
+        let blob = common::tree_blob(&name, &tris);
         let tree = blob.tree().unwrap();
         let side = (n as f64).sqrt() as u32;
         let sets: [(&str, Vec<Ray>); 2] = [

@@ -560,6 +560,7 @@ pub unsafe extern "C" fn kdray_any_hits_by_origin(
         let batch = Batch {
             width: PacketWidth::Eight,
             scratch,
+            ..Batch::default()
         };
         t.any_hits_each(rays, batch, |i, o| {
             if let Some(x) = occluded.get_mut(i) {

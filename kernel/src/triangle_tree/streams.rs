@@ -106,15 +106,22 @@ impl Entries<'_> {
         }
     }
 
-    /// Moves `n` entries from `from` down to `to` (`to <= from`).
+    /// Moves `n` entries from `from` down to `to` (`to <= from`; nothing
+    /// when out of range).
     #[inline(always)]
     fn move_down(&mut self, from: usize, to: usize, n: usize) {
-        if to == from {
+        let end = from.saturating_add(n);
+        if to == from || to > from || end > self.ids.len() {
             return;
         }
-        for k in 0..n {
-            if let Some((id, lo, hi)) = self.get(from + k) {
-                self.set(to + k, (id as u32, lo, hi));
+        // (The three arrays have the same length, `new`.)
+        for a in [
+            &mut *self.ids,
+            bytemuck::cast_slice_mut(self.lo),
+            bytemuck::cast_slice_mut(self.hi),
+        ] {
+            if end <= a.len() {
+                a.copy_within(from..end, to);
             }
         }
     }

@@ -12,8 +12,9 @@
 //! KDRAY_BENCH_CACHE=/tmp KDRAY_LEAN=lean KDRAY_LEAN_MESH=teapot KDRAY_LEAN_RAYS=16384 valgrind --tool=callgrind \
 //!   --collect-atstart=no --toggle-collect='*trace_rays*' target/release/deps/lean-*
 //! ```
-//! `KDRAY_LEAN=lean|tree` runs only that walk, `KDRAY_LEAN_MESH` only that
-//! mesh (`stanford-bunny`, `teapot`, `sponza`), `KDRAY_LEAN_RAYS` sets the
+//! `KDRAY_LEAN=lean|tree` runs only that walk, once, `KDRAY_LEAN_MESH` only that
+//! mesh (`stanford-bunny`, `teapot`, `sponza`), `KDRAY_LEAN_SET` only that ray set (`camera`,
+//! `random`), `KDRAY_LEAN_RAYS` sets the
 //! number of rays of each set (65536), `KDRAY_BENCH_CACHE` a folder to
 //! keep the built trees in.
 
@@ -160,6 +161,7 @@ fn trace_rays_tree(tree: &TriangleTree, rays: &[Ray], out: &mut [(f32, u32)]) {
 fn main() {
     let only = std::env::var("KDRAY_LEAN").ok();
     let mesh = std::env::var("KDRAY_LEAN_MESH").ok();
+    let set = std::env::var("KDRAY_LEAN_SET").ok();
     let n: usize = std::env::var("KDRAY_LEAN_RAYS")
         .ok()
         .and_then(|s| s.parse().ok())
@@ -186,12 +188,15 @@ fn main() {
             ("random", random_rays(&tree.bounds(), n, 1)),
         ];
         for (kind, rays) in &sets {
+            if set.as_deref().is_some_and(|s| s != *kind) {
+                continue;
+            }
             let mut out = [
                 vec![(0.0f32, 0u32); rays.len()],
                 vec![(0.0f32, 0u32); rays.len()],
             ];
             let mut best = [f64::INFINITY; 2];
-            for _round in 0..5 {
+            for _round in 0..if only.is_some() { 1 } else { 5 } {
                 for (k, (label, walk)) in walks.iter().enumerate() {
                     if only.as_deref().is_some_and(|o| o != *label) {
                         continue;

@@ -26,7 +26,7 @@
 use super::cell_ray::CellRay;
 use super::walk::{AnyVisit, ClosestVisit, LeafIter, Visit, STACK};
 use super::TriangleTree;
-use crate::blob::MAX_DEPTH;
+use crate::blob::{Node, MAX_DEPTH};
 use crate::geometry::{Hit, Ray};
 use crate::lanes::Span;
 use crate::triangle::{dominant_axis, Closest, ShearedRay};
@@ -52,57 +52,57 @@ struct Frame {
     len: u32,
 }
 
-/// The numbers every step reads of each ray of a block, by ray id.
-struct Geometry {
-    org: [[f32; STREAM_RAYS]; 3],
-    inv: [[f32; STREAM_RAYS]; 3],
+/// The numbers every step reads of one ray of a block (by ray id).
+#[derive(Clone, Copy)]
+struct StreamRay {
+    org: [f32; 3],
+    inv: [f32; 3],
     /// The above-first bit of each axis (x in bit 0), `CellRay`'s.
-    above_first: [u8; STREAM_RAYS],
+    above_first: u32,
     /// Twice the slack.
-    s2: [f32; STREAM_RAYS],
+    s2: f32,
     /// Cells starting after this cannot hold a better answer.
-    cutoff: [f32; STREAM_RAYS],
+    cutoff: f32,
 }
 
-/// The stream entries in scratch memory: ray ids and intervals.
-struct Entries<'s> {
-    ids: &'s mut [u32],
-    lo: &'s mut [f32],
-    hi: &'s mut [f32],
+/// One stream entry: a ray and its interval over the stream's cell.
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C)]
+struct Entry {
+    id: u32,
+    lo: f32,
+    hi: f32,
 }
+
+/// The stream entries, in the caller's scratch memory.
+struct Entries<'s>(&'s mut [Entry]);
 
 impl Entries<'_> {
-    /// Carves `scratch` into three arrays of equal length.
+    /// `scratch` as entries (all of it but a last partial entry).
     fn new(scratch: &mut [u64]) -> Entries<'_> {
         let words: &mut [u32] = bytemuck::cast_slice_mut(scratch);
-        let n = words.len() / 3;
-        let (ids, rest) = words.split_at_mut(n);
-        let (lo, rest) = rest.split_at_mut(n);
-        let hi = rest.get_mut(..n).unwrap_or(&mut []);
-        Entries {
-            ids,
-            lo: bytemuck::cast_slice_mut(lo),
-            hi: bytemuck::cast_slice_mut(hi),
-        }
+        let whole = words.len() / 3 * 3;
+        let words = words.get_mut(..whole).unwrap_or(&mut []);
+        Entries(bytemuck::try_cast_slice_mut(words).unwrap_or(&mut []))
+    }
+
+    /// Room for this many entries.
+    #[inline(always)]
+    fn len(&self) -> usize {
+        self.0.len()
     }
 
     /// Entry `i`, if in range.
     #[inline(always)]
     fn get(&self, i: usize) -> Option<(usize, f32, f32)> {
-        Some((
-            *self.ids.get(i)? as usize,
-            *self.lo.get(i)?,
-            *self.hi.get(i)?,
-        ))
+        self.0.get(i).map(|e| (e.id as usize, e.lo, e.hi))
     }
 
     /// Writes entry `i` (nothing when out of range).
     #[inline(always)]
     fn set(&mut self, i: usize, (id, lo, hi): (u32, f32, f32)) {
-        if let (Some(a), Some(b), Some(c)) =
-            (self.ids.get_mut(i), self.lo.get_mut(i), self.hi.get_mut(i))
-        {
-            (*a, *b, *c) = (id, lo, hi);
+        if let Some(e) = self.0.get_mut(i) {
+            *e = Entry { id, lo, hi };
         }
     }
 
@@ -111,18 +111,8 @@ impl Entries<'_> {
     #[inline(always)]
     fn move_down(&mut self, from: usize, to: usize, n: usize) {
         let end = from.saturating_add(n);
-        if to == from || to > from || end > self.ids.len() {
-            return;
-        }
-        // (The three arrays have the same length, `new`.)
-        for a in [
-            &mut *self.ids,
-            bytemuck::cast_slice_mut(self.lo),
-            bytemuck::cast_slice_mut(self.hi),
-        ] {
-            if end <= a.len() {
-                a.copy_within(from..end, to);
-            }
+        if to < from && end <= self.0.len() {
+            self.0.copy_within(from..end, to);
         }
     }
 }
@@ -269,13 +259,13 @@ impl TriangleTree<'_> {
         mut answer: impl FnMut(usize, &mut Q::State, Option<&ShearedRay>),
     ) {
         let rays = rays.get(..STREAM_RAYS).unwrap_or(rays);
-        let mut g = Geometry {
-            org: [[0.0; STREAM_RAYS]; 3],
-            inv: [[0.0; STREAM_RAYS]; 3],
-            above_first: [0; STREAM_RAYS],
-            s2: [0.0; STREAM_RAYS],
-            cutoff: [0.0; STREAM_RAYS],
-        };
+        let mut g = [StreamRay {
+            org: [0.0; 3],
+            inv: [0.0; 3],
+            above_first: 0,
+            s2: 0.0,
+            cutoff: 0.0,
+        }; STREAM_RAYS];
         let mut srs = [NO_RAY; STREAM_RAYS];
         let mut states = [Q::start(&Ray::new(Default::default(), Default::default())); STREAM_RAYS];
         let mut live = [false; STREAM_RAYS];
@@ -289,7 +279,7 @@ impl TriangleTree<'_> {
                 continue;
             };
             let (lo, hi) = cr.start();
-            if n >= e.ids.len() {
+            if n >= e.len() {
                 // No room: this ray alone.
                 if let (Some(s), Some(l)) = (states.get_mut(id), live.get_mut(id)) {
                     *s = Q::start(ray);
@@ -301,24 +291,22 @@ impl TriangleTree<'_> {
                 }
                 continue;
             }
-            for a in 0..3 {
-                if let (Some(o), Some(i)) = (g.org[a].get_mut(id), g.inv[a].get_mut(id)) {
-                    (*o, *i) = (cr.org[a], cr.inv[a]);
-                }
-            }
             let s2 = cr.slack + cr.slack;
-            if let (Some(af), Some(s), Some(c), Some(st), Some(l), Some(x)) = (
-                g.above_first.get_mut(id),
-                g.s2.get_mut(id),
-                g.cutoff.get_mut(id),
+            if let (Some(g), Some(st), Some(l), Some(x)) = (
+                g.get_mut(id),
                 states.get_mut(id),
                 live.get_mut(id),
                 srs.get_mut(id),
             ) {
-                *af = (cr.above_first[0] | cr.above_first[1] << 1 | cr.above_first[2] << 2) as u8;
-                *s = s2;
                 *st = Q::start(ray);
-                *c = Q::bound(st, ray).cutoff(s2);
+                let [x0, y0, z0] = cr.above_first;
+                *g = StreamRay {
+                    org: cr.org,
+                    inv: cr.inv,
+                    above_first: x0 | y0 << 1 | z0 << 2,
+                    s2,
+                    cutoff: Q::bound(st, ray).cutoff(s2),
+                };
                 *l = true;
                 *x = sr;
                 e.set(n, (id as u32, lo, hi));
@@ -342,14 +330,15 @@ impl TriangleTree<'_> {
     fn walk_streams<Q: StreamQuery>(
         &self,
         rays: &[Ray],
-        g: &mut Geometry,
+        g: &mut [StreamRay; STREAM_RAYS],
         srs: &[ShearedRay; STREAM_RAYS],
         states: &mut [Q::State; STREAM_RAYS],
         e: &mut Entries<'_>,
         n: usize,
     ) {
-        let cap = e.ids.len();
-        let mut frames = [Frame::default(); MAX_DEPTH as usize + 1];
+        let cap = e.len();
+        // Two streams wait per level of the tree.
+        let mut frames = [Frame::default(); 2 * MAX_DEPTH as usize + 1];
         frames[0] = Frame {
             node: 0,
             start: 0,
@@ -362,7 +351,7 @@ impl TriangleTree<'_> {
                        node: u32,
                        e: &Entries<'_>,
                        states: &mut [Q::State; STREAM_RAYS],
-                       g: &mut Geometry| {
+                       g: &mut [StreamRay; STREAM_RAYS]| {
             for i in from..to {
                 let Some((id, lo, hi)) = e.get(i) else {
                     continue;
@@ -372,12 +361,23 @@ impl TriangleTree<'_> {
                 else {
                     continue;
                 };
-                if let Some(cr) = CellRay::new(ray, sr.k[2], &self.bounds) {
-                    Q::single(self, sr, &cr, ray, s, (node, lo, hi));
-                }
-                if let (Some(c), Some(s2)) = (g.cutoff.get_mut(id), g.s2.get(id)) {
-                    *c = Q::bound(s, ray).cutoff(*s2);
-                }
+                let Some(g) = g.get_mut(id) else {
+                    continue;
+                };
+                // The ray's `CellRay` again, from what the streams keep of
+                // it (the walk reads no more of it; `s2 / 2` is exact).
+                let above_first = [0, 1, 2].map(|a| g.above_first >> a & 1);
+                let cr = CellRay {
+                    org: g.org,
+                    inv: g.inv,
+                    above_first,
+                    above_first_nibbles: Node::first_child_mask(above_first),
+                    t0: lo,
+                    t1: hi,
+                    slack: g.s2 / 2.0,
+                };
+                Q::single(self, sr, &cr, ray, s, (node, lo, hi));
+                g.cutoff = Q::bound(s, ray).cutoff(g.s2);
             }
         };
         while fp > 0 {
@@ -392,7 +392,7 @@ impl TriangleTree<'_> {
                 let Some((id, lo, hi)) = e.get(i) else {
                     continue;
                 };
-                let c = g.cutoff.get(id).copied().unwrap_or(f32::NEG_INFINITY);
+                let c = g.get(id).map_or(f32::NEG_INFINITY, |g| g.cutoff);
                 e.set(start + len, (id as u32, lo, Span::min(hi, c)));
                 len += usize::from(lo <= c);
             }
@@ -406,7 +406,7 @@ impl TriangleTree<'_> {
                 if len == 0 {
                     break;
                 }
-                if len < SINGLE_BELOW || (!node.is_leaf() && top + 2 * len > cap) {
+                if len < SINGLE_BELOW || (!node.is_leaf() && top + 3 * len > cap) {
                     singles(start, top, at, e, states, g);
                     break;
                 }
@@ -423,8 +423,8 @@ impl TriangleTree<'_> {
                             };
                             let prims = LeafIter::new(self.leaf_prims(node));
                             Q::leaf(self, sr, ray, s, prims);
-                            if let (Some(c), Some(s2)) = (g.cutoff.get_mut(id), g.s2.get(id)) {
-                                *c = Q::bound(s, ray).cutoff(*s2);
+                            if let Some(g) = g.get_mut(id) {
+                                g.cutoff = Q::bound(s, ray).cutoff(g.s2);
                             }
                         }
                     }
@@ -443,59 +443,75 @@ impl TriangleTree<'_> {
                     usize::from(!nb.is_empty_leaf()),
                     usize::from(!na.is_empty_leaf()),
                 ];
-                let base = [top, top + len];
-                let (mut k, mut votes) = ([0usize; 2], 0usize);
-                let (org, inv) = (&g.org[axis], &g.inv[axis]);
-                for i in start..top {
-                    let Some((id, lo, hi)) = e.get(i) else {
+                // Three streams come out, in the order they are walked:
+                // R0, the below child for the rays that enter it first
+                // (front to back; back to front for any hit); R1, the above
+                // child for all; R2, the below child for the rest. So each
+                // ray meets its two children in its own order. In memory,
+                // room for R2, R1, R0 after the stream's entries.
+                let ff = usize::from(Q::FAR_FIRST);
+                let mut k = [0usize; 3];
+                let (head, room) = e.0.split_at_mut(top.min(cap));
+                let (r2, room) = room.split_at_mut(len.min(room.len()));
+                let (r1, r0) = room.split_at_mut(len.min(room.len()));
+                let outs = [r0, r1, r2];
+                for &Entry { id, lo, hi } in head.get(start..).unwrap_or(&[]) {
+                    let Some(r) = g.get(id as usize) else {
                         continue;
                     };
-                    let (Some(&o), Some(&v), Some(&af), Some(&s2)) = (
-                        org.get(id),
-                        inv.get(id),
-                        g.above_first.get(id),
-                        g.s2.get(id),
-                    ) else {
-                        continue;
-                    };
+                    let (o, v, af, s2) = (r.org[axis], r.inv[axis], r.above_first, r.s2);
                     let t_split = (split - o) * v;
                     // The near child: 0 (below) or 1 (above).
-                    let near = usize::from(af >> axis & 1);
+                    let near = (af >> axis & 1) as usize;
                     let far = near ^ 1;
+                    // The stream of each child: the above child's is R1, the
+                    // below child's R0 if the ray enters it first, else R2.
+                    let region = [2 * (near ^ ff), 1];
+                    let (rn, rf) = (region[near], region[far]);
                     // As `split_step`: "not outside", so a NaN t_split visits both.
                     #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must visit
                     let (vn, vf) = (usize::from(!(t_split < lo)), usize::from(!(t_split > hi)));
-                    let id = id as u32;
-                    let (kn, kf) = (k[near], k[far]);
-                    e.set(base[near] + kn, (id, lo, hi.near_hi(t_split, s2)));
-                    e.set(base[far] + kf, (id, lo.far_lo(t_split, s2), hi));
-                    k[near] = kn + (vn & keep[near]);
-                    k[far] = kf + (vf & keep[far]);
-                    votes += near;
-                }
-                // The child most rays enter first (or last, back to front)
-                // is walked now, the other waits.
-                let above_now = (votes * 2 > len) != Q::FAR_FIRST;
-                let (now, later) = if above_now { (1, 0) } else { (0, 1) };
-                let (n_now, n_later) = (k[now], k[later]);
-                e.move_down(base[later], start, n_later);
-                e.move_down(base[now], start + n_later, n_now);
-                if n_later > 0 {
-                    if let Some(slot) = frames.get_mut(fp) {
-                        *slot = Frame {
-                            node: (below + later) as u32,
-                            start: start as u32,
-                            len: n_later as u32,
+                    let (kn, kf) = (k[rn], k[rf]);
+                    if let Some(x) = outs[rn].get_mut(kn) {
+                        *x = Entry {
+                            id,
+                            lo,
+                            hi: hi.near_hi(t_split, s2),
                         };
-                        fp += 1;
-                    } else {
+                    }
+                    if let Some(x) = outs[rf].get_mut(kf) {
+                        *x = Entry {
+                            id,
+                            lo: lo.far_lo(t_split, s2),
+                            hi,
+                        };
+                    }
+                    k[rn] = kn + (vn & keep[near]);
+                    k[rf] = kf + (vf & keep[far]);
+                }
+                // Packed down in the order they wait: R2 deepest, R0 on top.
+                let [n0, n1, n2] = k;
+                e.move_down(top, start, n2);
+                e.move_down(top + len, start + n2, n1);
+                e.move_down(top + 2 * len, start + n2 + n1, n0);
+                for (child, from, n) in [(0, start, n2), (1, start + n2, n1)] {
+                    if n == 0 {
+                        continue;
+                    }
+                    let Some(slot) = frames.get_mut(fp) else {
                         // Deeper than MAX_DEPTH: only an unchecked, invalid blob.
                         return;
-                    }
+                    };
+                    *slot = Frame {
+                        node: (below + child) as u32,
+                        start: from as u32,
+                        len: n as u32,
+                    };
+                    fp += 1;
                 }
-                at = (below + now) as u32;
-                start += n_later;
-                len = n_now;
+                at = below as u32;
+                start += n2 + n1;
+                len = n0;
             }
         }
     }

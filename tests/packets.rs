@@ -353,6 +353,7 @@ fn batches_sorted_in_morton_order_answer_in_their_own_order() {
                 Batch {
                     width,
                     scratch: &mut scratch,
+                    ..Batch::default()
                 },
             );
             assert!(got == want, "{width:?} scratch {room}");

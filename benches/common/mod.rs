@@ -1,6 +1,8 @@
 //! What the benches share: the scenes they trace.
 
 use kdray::kernel::{Bounds, Triangle};
+use kdray::tools::blob::{write_triangle_tree, Blob};
+use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use kdray::tools::{demo_scene, mesh};
 use std::path::PathBuf;
 
@@ -24,4 +26,22 @@ pub(crate) fn scenes(meshes: &[&str]) -> Vec<(String, Vec<Triangle>, Bounds)> {
         }
     }
     out
+}
+
+/// The default build of `tris` as a blob, kept as `NAME.kdt` in the folder
+/// `KDRAY_BENCH_CACHE` when set (a build under callgrind takes minutes).
+#[allow(dead_code)] // not every bench keeps its trees
+pub(crate) fn tree_blob(name: &str, tris: &[Triangle]) -> Blob {
+    let cached = std::env::var("KDRAY_BENCH_CACHE")
+        .ok()
+        .map(|d| PathBuf::from(d).join(format!("{name}.kdt")));
+    if let Some(Ok(b)) = cached.as_deref().map(Blob::read) {
+        return b;
+    }
+    let built = build(tris, BuilderKind::default(), &BuildParams::default()).unwrap();
+    let b = write_triangle_tree(&built, tris).expect("the bench tree fits a blob");
+    if let Some(p) = &cached {
+        std::fs::write(p, b.as_bytes()).expect("the cache folder is writable");
+    }
+    b
 }

@@ -494,7 +494,11 @@ unsafe fn read_batch<'a>(batch: *const KdrayBatch) -> Result<Batch<'a>, KdraySta
         // overlapping the other arrays by contract; the size fits a slice.
         unsafe { core::slice::from_raw_parts_mut(b.scratch, b.scratch_count) }
     };
-    Ok(Batch { width, scratch })
+    Ok(Batch {
+        width,
+        scratch,
+        ..Batch::default()
+    })
 }
 
 /// The closest hits of a batch of `count` rays: `hits[i]` is bit for bit

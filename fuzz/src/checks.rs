@@ -27,7 +27,7 @@ use kdray::kernel::format::wire::{
 use kdray::kernel::{
     any_hit_brute, closest_hit_brute, closest_point_brute, crossings_brute, first_hits_brute,
     Batch, Hit, MortonGrid, Node, Packet, Packet4, Packet8, PacketWidth, Ray, RayKey, SceneHit,
-    ShallowTree, Treelet, Triangle, TriangleTree,
+    ShallowTree, Streams, Treelet, Triangle, TriangleTree, STREAM_SCRATCH_WORDS,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
@@ -334,12 +334,34 @@ fn packet_lanes<'t, const N: usize>(
         Batch {
             width: PacketWidth::Eight,
             scratch: &mut scratch,
+            ..Batch::default()
         },
     );
     for (((ray, h), o), b) in rays.iter().zip(&hits).zip(&occ).zip(&by_origin) {
         assert_eq!(h.bits(), tree.closest_hit(ray).bits(), "slice: {ray:?}");
         assert_eq!(*o, tree.any_hit(ray), "slice any: {ray:?}");
         assert_eq!(*b, *o, "by origin: {ray:?}");
+    }
+    // As ray streams, with room for every stream and with room for few
+    // (those go on as single rays from their node).
+    for words in [STREAM_SCRATCH_WORDS, 3 * N / 2] {
+        let mut scratch = vec![0u64; words];
+        let (mut sh, mut so) = (vec![Hit::MISS; N], vec![false; N]);
+        for any in [false, true] {
+            let batch = Batch {
+                scratch: &mut scratch,
+                streams: Streams::Always,
+                ..Batch::default()
+            };
+            if any {
+                tree.any_hits(&rays, &mut so, batch);
+            } else {
+                tree.closest_hits(&rays, &mut sh, batch);
+            }
+        }
+        let bits = |h: &[Hit]| h.iter().map(Hit::bits).collect::<Vec<_>>();
+        assert_eq!(bits(&sh), bits(&hits), "streams, {words} words");
+        assert_eq!(so, occ, "streams any, {words} words");
     }
     // Their keys by origin and direction (what `kdray trace --order
     // morton` sorts closest hits by): below 2^30, or 2^30 for a ray with a

@@ -154,6 +154,6 @@ pub use triangle::{
 };
 pub use triangle_tree::packet::{Packet, Packet16, Packet4, Packet8, PacketWidth};
 pub use triangle_tree::{
-    Batch, Counting, PacketLanes, ShallowTree, TraceBatch, TraversalCounts, Treelet,
-    TreeletBufferTooSmall, TreeletTree, TriangleTree, INSIDE_RAYS,
+    Batch, Counting, PacketLanes, ShallowTree, Streams, TraceBatch, TraversalCounts, Treelet,
+    TreeletBufferTooSmall, TreeletTree, TriangleTree, INSIDE_RAYS, STREAM_SCRATCH_WORDS,
 };

@@ -13,13 +13,15 @@ mod inside;
 mod leaf_lanes;
 pub(crate) mod packet;
 mod shallow;
+mod streams;
 mod treelet_tree;
 mod treelets;
 mod turns;
 mod walk;
 
-pub use batch::Batch;
+pub use batch::{Batch, Streams};
 pub use packet::PacketLanes;
+pub use streams::STREAM_SCRATCH_WORDS;
 pub use treelet_tree::{TraceBatch, TreeletTree};
 pub use treelets::{Treelet, TreeletBufferTooSmall};
 

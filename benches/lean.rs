@@ -1,0 +1,225 @@
+//! The k-d tree's own bound on this machine: the lecture's loop over the
+//! same blob, lean (no slack, plain `f32` Möller-Trumbore, no `f64` `t`,
+//! no tie rule, empty children skipped at the parent, early exit once the
+//! best hit lies within the current cell), printed beside `closest_hit` on
+//! the same rays: nanoseconds a ray, best of five interleaved rounds.
+//! Not exact (it is the reference, not an answer): it also prints how many
+//! rays it answers differently, which should be a few in a million.
+//!
+//! ```sh
+//! taskset -c 0 cargo bench --bench lean
+//! # instructions a ray (one variant, one mesh, few rays):
+//! KDRAY_BENCH_CACHE=/tmp KDRAY_LEAN=lean KDRAY_LEAN_MESH=teapot KDRAY_LEAN_RAYS=16384 valgrind --tool=callgrind \
+//!   --collect-atstart=no --toggle-collect='*trace_rays*' target/release/deps/lean-*
+//! ```
+//! `KDRAY_LEAN=lean|tree` runs only that walk, once, `KDRAY_LEAN_MESH` only that
+//! mesh (`stanford-bunny`, `teapot`, `sponza`), `KDRAY_LEAN_SET` only that ray set (`camera`,
+//! `random`), `KDRAY_LEAN_RAYS` sets the
+//! number of rays of each set (65536), `KDRAY_BENCH_CACHE` a folder to
+//! keep the built trees in.
+
+mod common;
+
+use kdray::kernel::{Node, Ray, Triangle, TriangleTree};
+use kdray::tools::camera::{random_rays, Camera};
+use std::hint::black_box;
+use std::time::Instant;
+
+/// Plain Möller-Trumbore in `f32`: the hit's `t` in `(tmin, tmax)`.
+#[inline(always)]
+fn moller_trumbore(tri: &Triangle, o: [f32; 3], d: [f32; 3], tmin: f32, tmax: f32) -> Option<f32> {
+    let sub = |a: [f32; 3], b: [f32; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let cross = |a: [f32; 3], b: [f32; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let [v0, v1, v2] = tri.v;
+    let (e1, e2) = (sub(v1, v0), sub(v2, v0));
+    let p = cross(d, e2);
+    let det = dot(e1, p);
+    if det == 0.0 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = sub(o, v0);
+    let u = dot(s, p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = cross(s, e1);
+    let v = dot(d, q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    let t = dot(e2, q) * inv;
+    (t > tmin && t < tmax).then_some(t)
+}
+
+/// The lecture's walk: `(t, triangle)` of the closest hit, `u32::MAX` for none.
+#[inline(always)]
+fn lean_closest(tree: &TriangleTree, ray: &Ray, stack: &mut [(u32, f32, f32); 64]) -> (f32, u32) {
+    let (nodes, prims, tris, b) = (
+        tree.nodes(),
+        tree.prim_indices(),
+        tree.triangles(),
+        tree.bounds(),
+    );
+    let (o, d) = (ray.origin, ray.dir);
+    let inv = d.map(|x| 1.0 / x);
+    // Clip to the scene box (slab test).
+    let (mut lo, mut hi) = (ray.tmin, ray.tmax);
+    for a in 0..3 {
+        let (t0, t1) = ((b.min[a] - o[a]) * inv[a], (b.max[a] - o[a]) * inv[a]);
+        lo = lo.max(t0.min(t1));
+        hi = hi.min(t0.max(t1));
+    }
+    let mut best = (ray.tmax, u32::MAX);
+    if lo > hi {
+        return best;
+    }
+    let above_first = inv.map(|x| usize::from(x < 0.0));
+    let mut sp = 0;
+    let mut node: Node = nodes[0];
+    loop {
+        let axis = node.axis_bits();
+        if axis < 3 {
+            // One FP subtract, one FP multiply.
+            let t = (node.split() - o[axis]) * inv[axis];
+            let near = node.upper() as usize + above_first[axis];
+            let far = near ^ 1;
+            let (n, f) = (nodes[near], nodes[far]);
+            let (go_near, go_far) = (t >= lo && !n.is_empty_leaf(), t <= hi && !f.is_empty_leaf());
+            if go_near {
+                if go_far && sp < 64 {
+                    stack[sp] = (far as u32, t, hi);
+                    sp += 1;
+                }
+                hi = hi.min(t);
+                node = n;
+                continue;
+            } else if go_far {
+                lo = lo.max(t);
+                node = f;
+                continue;
+            }
+        } else {
+            let count = node.upper() as usize;
+            let one = [node.word0()];
+            let run = if count == 1 {
+                &one[..]
+            } else {
+                &prims[node.word0() as usize..][..count]
+            };
+            for &p in run {
+                if let Some(t) = moller_trumbore(&tris[p as usize], o, d, ray.tmin, best.0) {
+                    best = (t, p);
+                }
+            }
+            // The best hit lies in this cell: no later cell holds a closer one.
+            if best.0 <= hi {
+                return best;
+            }
+        }
+        // Next pending cell that starts before the best hit.
+        loop {
+            if sp == 0 {
+                return best;
+            }
+            sp -= 1;
+            let (n, l, h) = stack[sp];
+            if l <= best.0 {
+                (node, lo, hi) = (nodes[n as usize], l, h);
+                break;
+            }
+        }
+    }
+}
+
+/// The walk a measurement runs: each ray's answer into `out`.
+#[inline(never)]
+fn trace_rays_lean(tree: &TriangleTree, rays: &[Ray], out: &mut [(f32, u32)]) {
+    // One stack for all rays: no zeroing per ray.
+    let mut stack = [(0u32, 0.0f32, 0.0f32); 64];
+    for (o, r) in out.iter_mut().zip(rays) {
+        *o = lean_closest(tree, black_box(r), &mut stack);
+    }
+}
+
+/// `closest_hit` over the same rays.
+#[inline(never)]
+fn trace_rays_tree(tree: &TriangleTree, rays: &[Ray], out: &mut [(f32, u32)]) {
+    for (o, r) in out.iter_mut().zip(rays) {
+        let h = tree.closest_hit(black_box(r));
+        *o = (h.t, h.prim);
+    }
+}
+
+fn main() {
+    let only = std::env::var("KDRAY_LEAN").ok();
+    let mesh = std::env::var("KDRAY_LEAN_MESH").ok();
+    let set = std::env::var("KDRAY_LEAN_SET").ok();
+    let n: usize = std::env::var("KDRAY_LEAN_RAYS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(65_536);
+    let names: Vec<&str> = match &mesh {
+        Some(m) => vec![m.as_str()],
+        None => vec!["stanford-bunny", "teapot", "sponza"],
+    };
+    type Walk = fn(&TriangleTree, &[Ray], &mut [(f32, u32)]);
+    let walks: [(&str, Walk); 2] = [("lean", trace_rays_lean), ("tree", trace_rays_tree)];
+    println!(
+        "{:<16} {:<7} {:>10} {:>10} {:>7} {:>9}",
+        "mesh", "rays", "lean ns", "tree ns", "ratio", "differ"
+    );
+    for (name, tris, focus) in common::scenes(&names) {
+        if mesh.as_deref().is_some_and(|m| m != name) {
+            continue;
+        }
+        let blob = common::tree_blob(&name, &tris);
+        let tree = blob.tree().unwrap();
+        let side = (n as f64).sqrt() as u32;
+        let sets: [(&str, Vec<Ray>); 2] = [
+            ("camera", Camera::framing(&focus).rays(side, side)),
+            ("random", random_rays(&tree.bounds(), n, 1)),
+        ];
+        for (kind, rays) in &sets {
+            if set.as_deref().is_some_and(|s| s != *kind) {
+                continue;
+            }
+            let mut out = [
+                vec![(0.0f32, 0u32); rays.len()],
+                vec![(0.0f32, 0u32); rays.len()],
+            ];
+            let mut best = [f64::INFINITY; 2];
+            for _round in 0..if only.is_some() { 1 } else { 5 } {
+                for (k, (label, walk)) in walks.iter().enumerate() {
+                    if only.as_deref().is_some_and(|o| o != *label) {
+                        continue;
+                    }
+                    let t = Instant::now();
+                    walk(&tree, rays, &mut out[k]);
+                    best[k] = best[k].min(t.elapsed().as_secs_f64() * 1e9 / rays.len() as f64);
+                }
+            }
+            let differ = out[0]
+                .iter()
+                .zip(&out[1])
+                .filter(|(a, b)| a.1 != b.1)
+                .count();
+            println!(
+                "{:<16} {:<7} {:>10.1} {:>10.1} {:>7.2} {:>9}",
+                name,
+                kind,
+                best[0],
+                best[1],
+                best[1] / best[0],
+                differ
+            );
+        }
+    }
+}

@@ -6,66 +6,15 @@
 //! rays), and on the shared meshes' camera and random rays.
 
 mod common;
+use common::{adversarial_ray, random_ray, scene};
 
-use kdray::kernel::{Batch, Hit, Ray, Streams, Triangle, TriangleTree, STREAM_SCRATCH_WORDS};
+use kdray::kernel::{Batch, Hit, Ray, Streams, TriangleTree, STREAM_SCRATCH_WORDS};
 use kdray::tools::blob::write_triangle_tree;
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use kdray::tools::camera::{random_rays, Camera};
 use kdray::tools::mesh;
 use kdray::tools::rng::Rng;
 use proptest::prelude::*;
-
-/// `n` small triangles in a 10-unit cube; with `grid`, vertices snapped
-/// to a 1/2-unit grid (hits on shared edges, vertices and split planes).
-fn scene(rng: &mut Rng, n: usize, grid: bool) -> Vec<Triangle> {
-    let snap = |x: f32| if grid { (x * 2.0).round() / 2.0 } else { x };
-    (0..n)
-        .map(|_| {
-            let c = [rng.f32() * 10.0, rng.f32() * 10.0, rng.f32() * 10.0];
-            Triangle {
-                v: std::array::from_fn(|_| {
-                    std::array::from_fn(|a| snap(c[a] + 2.0 * rng.f32() - 1.0))
-                }),
-            }
-        })
-        .collect()
-}
-
-fn random_ray(rng: &mut Rng) -> Ray {
-    Ray {
-        origin: std::array::from_fn(|_| rng.f32() * 12.0 - 1.0),
-        tmin: 0.0,
-        dir: std::array::from_fn(|_| rng.f32() - 0.5),
-        tmax: f32::INFINITY,
-    }
-}
-
-/// NaN, ±0, ±inf, subnormals, origins on grid planes, odd intervals.
-fn hostile_ray(rng: &mut Rng) -> Ray {
-    let special = [
-        0.0,
-        -0.0,
-        f32::NAN,
-        f32::INFINITY,
-        1e-42,
-        -1e-42,
-        f32::MIN_POSITIVE,
-        1e30,
-    ];
-    let mut r = random_ray(rng);
-    for a in 0..3 {
-        match (rng.f32() * 10.0) as u32 {
-            0 => r.origin[a] = rng.pick(&special),
-            1 => r.dir[a] = rng.pick(&special),
-            2..=3 => r.origin[a] = (r.origin[a] * 2.0).round() / 2.0,
-            4 => r.dir[a] = 0.0,
-            _ => {}
-        }
-    }
-    r.tmin = rng.pick(&[0.0, -0.0, 0.0, 1.0, -5.0, f32::NAN]);
-    r.tmax = rng.pick(&[f32::INFINITY, f32::INFINITY, 3.0, 0.0, f32::NAN, -1.0]);
-    r
-}
 
 /// Streams answer `rays` as single rays, closest and any hit, with
 /// `words` of scratch; the number of rays that hit.
@@ -111,7 +60,7 @@ fn streams_equal_single_rays_on_generated_scenes() {
             let blob = write_triangle_tree(&built, &tris).unwrap();
             let tree = blob.tree().unwrap();
             let random: Vec<Ray> = (0..700).map(|_| random_ray(&mut rng)).collect();
-            let hostile: Vec<Ray> = (0..300).map(|_| hostile_ray(&mut rng)).collect();
+            let hostile: Vec<Ray> = (0..300).map(|_| adversarial_ray(&mut rng)).collect();
             // One direction octant, and one origin: streams that stay together.
             let one_sign: Vec<Ray> = random
                 .iter()
@@ -148,7 +97,7 @@ proptest! {
         let blob = write_triangle_tree(&built, &tris).unwrap();
         let tree = blob.tree().unwrap();
         let rays: Vec<Ray> = (0..300)
-            .map(|i| if i % 4 == 0 { hostile_ray(&mut rng) } else { random_ray(&mut rng) })
+            .map(|i| if i % 4 == 0 { adversarial_ray(&mut rng) } else { random_ray(&mut rng) })
             .collect();
         check(&tree, &rays, words);
     }

@@ -7,6 +7,7 @@ use kdray::kernel::{
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
+use kdray::tools::rng::Rng;
 use std::path::PathBuf;
 
 /// The real-mesh folder: `KDRAY_MESHES` when set (it must be a folder:
@@ -260,4 +261,60 @@ pub(crate) fn assert_matches_f64(
         }
     }
     hits
+}
+
+/// `n` small triangles in a 10-unit cube; with `grid`, vertices snapped
+/// to a 1/2-unit grid so many rays meet edges, vertices and split planes.
+pub(crate) fn scene(rng: &mut Rng, n: usize, grid: bool) -> Vec<Triangle> {
+    let snap = |x: f32| if grid { (x * 2.0).round() / 2.0 } else { x };
+    (0..n)
+        .map(|_| {
+            let c = [rng.f32() * 10.0, rng.f32() * 10.0, rng.f32() * 10.0];
+            Triangle {
+                v: std::array::from_fn(|_| {
+                    std::array::from_fn(|a| snap(c[a] + 2.0 * rng.f32() - 1.0))
+                }),
+            }
+        })
+        .collect()
+}
+
+/// A ray from a point in the 12-unit cube around the scenes of [`scene`],
+/// in a random direction, unbounded.
+pub(crate) fn random_ray(rng: &mut Rng) -> Ray {
+    Ray {
+        origin: std::array::from_fn(|_| rng.f32() * 12.0 - 1.0),
+        tmin: 0.0,
+        dir: std::array::from_fn(|_| rng.f32() - 0.5),
+        tmax: f32::INFINITY,
+    }
+}
+
+/// A ray with hostile components: NaN, ±0, ±inf, subnormals, origins on
+/// grid planes (where splits of snapped scenes lie), rays along them.
+pub(crate) fn adversarial_ray(rng: &mut Rng) -> Ray {
+    let special = [
+        0.0,
+        -0.0,
+        f32::NAN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        1e-42,
+        -1e-42,
+        f32::MIN_POSITIVE,
+        1e30,
+    ];
+    let mut r = random_ray(rng);
+    for a in 0..3 {
+        match (rng.f32() * 10.0) as u32 {
+            0 => r.origin[a] = rng.pick(&special),
+            1 => r.dir[a] = rng.pick(&special),
+            2..=3 => r.origin[a] = (r.origin[a] * 2.0).round() / 2.0,
+            4 => r.dir[a] = 0.0,
+            _ => {}
+        }
+    }
+    r.tmin = rng.pick(&[0.0, -0.0, 0.0, 0.0, 1.0, -5.0, f32::NAN, f32::NEG_INFINITY]);
+    r.tmax = rng.pick(&[f32::INFINITY, f32::INFINITY, 3.0, 0.0, f32::NAN, -1.0]);
+    r
 }

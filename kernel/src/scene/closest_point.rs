@@ -22,7 +22,7 @@
 
 use super::{Instance, Scene};
 use crate::geometry::Bounds;
-use crate::triangle::ClosestPoint;
+use crate::triangle::{box_distance2, ClosestPoint};
 use crate::triangle_tree::TriangleTree;
 use core::fmt;
 
@@ -118,21 +118,6 @@ fn magnitude2(p: &[f32; 3], b: &Bounds) -> f64 {
     m * m
 }
 
-/// The squared distance from `q` to the box `b`, in `f64`.
-fn box_distance2(b: &Bounds, q: &[f32; 3]) -> f64 {
-    (0..3).fold(0.0, |d, a| {
-        let (lo, hi, x) = (b.min[a], b.max[a], q[a]);
-        let g = if x < lo {
-            f64::from(lo) - f64::from(x)
-        } else if x > hi {
-            f64::from(x) - f64::from(hi)
-        } else {
-            0.0
-        };
-        d + g * g
-    })
-}
-
 impl<'a> Scene<'a> {
     /// Every instance `mask` selects, with its mesh and squared scale, in
     /// index order; the first one that is not a similarity refuses.
@@ -185,7 +170,9 @@ impl<'a> Scene<'a> {
                 let slack = (magnitude2(&q, &self.bounds)
                     + s2 * magnitude2(&inst.local_point(q), &local))
                     / 268_435_456.0;
-                if box_distance2(&inst.world_bounds(&local), &q) > 2.0 * best.distance2 + slack {
+                if box_distance2(&inst.world_bounds(&local), &q.map(f64::from))
+                    > 2.0 * best.distance2 + slack
+                {
                     return;
                 }
             }

@@ -65,7 +65,7 @@ pub use brute::{
 };
 pub(crate) use closest::Closest;
 pub(crate) use first::{FirstHits, Ranked};
-pub(crate) use point::{box_gaps2, NearestTriangle};
+pub(crate) use point::{box_distance2, box_gaps2, NearestTriangle};
 pub use point::{closest_point_brute, ClosestPoint};
 pub use spawn::SurfacePoint;
 

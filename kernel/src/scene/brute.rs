@@ -70,12 +70,19 @@ impl Scene<'_> {
         if !q.iter().all(|c| c.is_finite()) {
             return Ok(None);
         }
-        self.similar_instances(mask, |i, inst, mesh, s2| {
-            let local = inst.local_point(q);
-            if let Some(c) = crate::closest_point_brute(mesh.triangles(), local, f32::INFINITY) {
-                near.keep(i, inst, s2, c);
+        self.refuse_unsimilar(mask)?;
+        for i in 0..self.instances.len() as u32 {
+            let Some((inst, mesh)) = self.selected(i, mask) else {
+                continue;
+            };
+            if let Some(s2) = inst.similarity_scale2() {
+                let local = inst.local_point(q);
+                if let Some(c) = crate::closest_point_brute(mesh.triangles(), local, f32::INFINITY)
+                {
+                    near.keep(i, inst, s2, c);
+                }
             }
-        })?;
+        }
         Ok(near.best)
     }
 }

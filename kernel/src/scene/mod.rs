@@ -215,6 +215,13 @@ pub struct Scene<'a> {
     prims: &'a [u32],
     bounds: Bounds,
     max_depth: u32,
+    /// The masks of the instances whose transform is not a similarity,
+    /// merged: a query whose mask shares no bit with it selects none
+    /// (`closest_point`'s refusal).
+    unsimilar_masks: u32,
+    /// The largest `s^2` times squared mesh-box magnitude of the
+    /// similarity instances: the closest-point walk's cell cut.
+    reach2: f64,
 }
 
 impl<'a> Scene<'a> {
@@ -244,6 +251,8 @@ impl<'a> Scene<'a> {
             prims,
             bounds,
             max_depth: 0,
+            unsimilar_masks: 0,
+            reach2: 0.0,
         };
         scene.validate()
     }
@@ -321,6 +330,8 @@ impl<'a> Scene<'a> {
                 max: header.bounds_max,
             },
             max_depth: 0,
+            unsimilar_masks: 0,
+            reach2: 0.0,
         }
         .validate()?;
         header.expect_depth(scene.max_depth)?;
@@ -328,7 +339,8 @@ impl<'a> Scene<'a> {
     }
 
     /// The checks [`Scene::from_parts`] lists; returns the scene with its
-    /// measured depth.
+    /// measured depth and what the closest-point walk needs of its
+    /// instances.
     fn validate(mut self) -> Result<Scene<'a>, SceneError> {
         if !self.bounds.is_valid() {
             return Err(BlobError::BadBounds.into());
@@ -354,6 +366,12 @@ impl<'a> Scene<'a> {
             }
             if !(self.bounds.contains(w.min) && self.bounds.contains(w.max)) {
                 return Err(SceneError::InstanceOutsideBounds { instance });
+            }
+            match inst.similarity_scale2() {
+                Some(s2) => {
+                    self.reach2 = self.reach2.max(closest_point::reach2(s2, &mesh.bounds()))
+                }
+                None => self.unsimilar_masks |= inst.mask(),
             }
         }
         self.max_depth = validate_nodes(self.nodes, self.prims, self.instances.len())?;

@@ -138,7 +138,7 @@ trait Visit {
 /// replaced in turn; an instance that dropped out is traced again, which
 /// costs time, never an answer.
 #[derive(Default)]
-struct Mailbox {
+pub(super) struct Mailbox {
     ids: [u32; MAILBOX],
     len: usize,
 }
@@ -149,7 +149,7 @@ const MAILBOX: usize = 8;
 impl Mailbox {
     /// Was `i` traced lately? If not, it is noted as traced now.
     #[inline(always)]
-    fn seen(&mut self, i: u32) -> bool {
+    pub(super) fn seen(&mut self, i: u32) -> bool {
         let filled = self.ids.get(..self.len.min(MAILBOX)).unwrap_or(&[]);
         if filled.contains(&i) {
             return true;

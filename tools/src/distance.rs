@@ -9,11 +9,21 @@
 //! The distance is `sqrt(distance2)` of the kernel's `f64` squared
 //! distance, rounded once to `f32`; the signed distance is negative inside
 //! (the sign is the kernel's `contains` by the chosen [`InsideRule`]).
+//!
+//! A scene ([`scene_distance_records`]) answers by the kernel's
+//! [`Scene::closest_point_within`], each record naming its instance. It
+//! has no signed distance: the rules compose over instances (crossings
+//! add, so parity and the winding number of the union are sums over the
+//! instances, a mirrored one counted negated), but a ray's crossings are
+//! not yet counted once per instance through the top level; flatten the
+//! scene (`kdray build` of its mesh file without `--instances`) to sign.
 
 use crate::morton::point_order;
 use crate::winding::WindingCaps;
 use bytemuck::{Pod, Zeroable};
-use kdray_kernel::{item_index, ClosestPoint, TriangleTree, MISS};
+use kdray_kernel::{
+    item_index, Bounds, ClosestPoint, NotSimilar, Scene, SceneClosestPoint, TriangleTree, MISS,
+};
 use rayon::prelude::*;
 
 /// How inside and outside are told apart.
@@ -111,6 +121,39 @@ impl DistanceRecord {
     }
 }
 
+/// One scene `.dist` record (docs/formats.md): a [`DistanceRecord`] in
+/// world space (`prim` the triangle in its instance's mesh) and the
+/// instance. `repr(C)`, Pod, 32 bytes.
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+#[repr(C)]
+pub struct SceneDistanceRecord {
+    /// The closest point, its triangle, barycentrics and distance.
+    pub record: DistanceRecord,
+    /// The instance's index in the scene; [`MISS`] when there is none.
+    pub instance: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<SceneDistanceRecord>() == 32);
+
+impl SceneDistanceRecord {
+    /// The record of a scene's answer (`None`: nothing within reach) for
+    /// a query whose coordinates are finite or not (`finite`).
+    #[must_use]
+    pub fn new(c: Option<SceneClosestPoint>, finite: bool) -> SceneDistanceRecord {
+        let mesh = c.map(|c| ClosestPoint {
+            point: c.point,
+            prim: c.prim,
+            u: c.u,
+            v: c.v,
+            distance2: c.distance2,
+        });
+        SceneDistanceRecord {
+            record: DistanceRecord::new(mesh, finite),
+            instance: c.map_or(MISS, |c| c.instance),
+        }
+    }
+}
+
 /// The distance of a closest point: the square root of its `f64` squared
 /// distance, rounded once.
 #[must_use]
@@ -145,19 +188,19 @@ const CHUNK: usize = 256;
 
 /// `out[i] = each(start, queries[i])` for every pair, on the current rayon
 /// pool, the queries taken in the Morton order of their positions over
-/// the tree's box ([`point_order`]): a walk finds the cells and triangles
+/// `bounds` ([`point_order`]; a tree's or a scene's box): a walk finds the cells and triangles
 /// its predecessor read still in cache, and `start` (`u32::MAX` at the
 /// start of each task) carries the previous answer's triangle, a tight
 /// first bound for the next closest-point search. Each answer is the
 /// kernel's for its query alone, whatever the order.
 fn in_space_order<T: Send>(
-    tree: &TriangleTree<'_>,
+    bounds: &Bounds,
     queries: &[[f32; 3]],
     out: &mut [T],
     each: impl Fn(&mut u32, [f32; 3]) -> T + Sync,
 ) {
     let n = queries.len().min(out.len());
-    let Some(order) = point_order(&queries[..n], &tree.bounds()) else {
+    let Some(order) = point_order(&queries[..n], bounds) else {
         // Past `u32::MAX` queries: in their own order.
         out.par_chunks_mut(CHUNK)
             .zip(queries.par_chunks(CHUNK))
@@ -194,7 +237,7 @@ pub fn closest_points(
     max_distance: f32,
     out: &mut [Option<ClosestPoint>],
 ) {
-    in_space_order(tree, queries, out, |start, q| {
+    in_space_order(&tree.bounds(), queries, out, |start, q| {
         let c = tree.closest_point_from(q, max_distance, *start);
         if let Some(c) = &c {
             *start = c.prim;
@@ -214,7 +257,7 @@ pub fn distance_records(
     out: &mut [DistanceRecord],
 ) {
     let inside = sign.map(|rule| Inside::new(rule, tree));
-    in_space_order(tree, queries, out, |start, q| {
+    in_space_order(&tree.bounds(), queries, out, |start, q| {
         let mut r = record_from(tree, q, max_distance, start);
         if inside.as_ref().is_some_and(|i| i.contains(tree, q)) {
             r.distance = -r.distance;
@@ -226,7 +269,9 @@ pub fn distance_records(
 /// The distance of every query to the mesh (`+inf` for an empty mesh, NaN
 /// for a query that is not finite), into `out`; on the current rayon pool.
 pub fn distances(tree: &TriangleTree<'_>, queries: &[[f32; 3]], out: &mut [f32]) {
-    in_space_order(tree, queries, out, |start, q| distance_from(tree, q, start));
+    in_space_order(&tree.bounds(), queries, out, |start, q| {
+        distance_from(tree, q, start)
+    });
 }
 
 /// The signed distance of every query (negative inside by `rule`), into
@@ -238,7 +283,7 @@ pub fn signed_distances(
     out: &mut [f32],
 ) {
     let inside = Inside::new(rule, tree);
-    in_space_order(tree, queries, out, |start, q| {
+    in_space_order(&tree.bounds(), queries, out, |start, q| {
         let d = distance_from(tree, q, start);
         if inside.contains(tree, q) {
             -d
@@ -257,5 +302,31 @@ pub fn occupancy(
     out: &mut [bool],
 ) {
     let inside = Inside::new(rule, tree);
-    in_space_order(tree, queries, out, |_, q| inside.contains(tree, q));
+    in_space_order(&tree.bounds(), queries, out, |_, q| {
+        inside.contains(tree, q)
+    });
+}
+
+/// The scene `.dist` record of every query (see [`SceneDistanceRecord`]):
+/// the closest point over the instances `mask` selects within
+/// `max_distance`, in world space; on the current rayon pool, the queries
+/// in space order over the scene's box.
+///
+/// # Errors
+/// [`NotSimilar`], before any query is answered, when a selected instance
+/// is scaled unevenly or sheared (the kernel's refusal).
+pub fn scene_distance_records(
+    scene: &Scene<'_>,
+    queries: &[[f32; 3]],
+    mask: u32,
+    max_distance: f32,
+    out: &mut [SceneDistanceRecord],
+) -> Result<(), NotSimilar> {
+    scene.check_similar(mask)?;
+    in_space_order(&scene.bounds(), queries, out, |_, q| {
+        let finite = q.iter().all(|c| c.is_finite());
+        let c = scene.closest_point_within(q, mask, max_distance);
+        SceneDistanceRecord::new(c.ok().flatten(), finite)
+    });
+    Ok(())
 }

@@ -1681,3 +1681,63 @@ fn distance_refuses_bad_input_by_name() {
     assert!(!o.status.success());
     assert!(stderr(&o).contains("good.pts"), "{}", stderr(&o));
 }
+
+/// `distance` on a scene blob: every instance, each record naming its
+/// instance (32 bytes), bit for bit the kernel's brute force; `--signed`
+/// refused by name.
+#[test]
+fn distance_on_a_scene_names_the_instance() {
+    let dir = folder("dscene");
+    let gltf = write(&dir.join("quad.gltf"), &quad_gltf());
+    let scene = dir.join("scene.kdt").display().to_string();
+    let o = kdray(&["build", &gltf, "-o", &scene, "--instances"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Above the first quad, below the second, and halfway between them
+    // (a tie: the lower instance wins).
+    let queries = [
+        [0.5, 0.5, 1.0],
+        [2.5, 0.5, -1.0],
+        [1.5, 0.5, 0.0],
+        [9.0, 9.0, 9.0],
+    ];
+    let pts = write(&dir.join("q.pts"), &point_bytes(&queries));
+    let out = dir.join("s.dist").display().to_string();
+    let o = kdray(&[
+        "distance",
+        &scene,
+        &pts,
+        "-o",
+        &out,
+        "--json",
+        "--max-distance",
+        "5",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = json(&o);
+    assert_eq!(
+        (j["instances"].clone(), j["beyond_max_distance"].clone()),
+        (2.into(), 1.into())
+    );
+    let bytes = std::fs::read(&out).unwrap();
+    assert_eq!(bytes.len(), 32 * queries.len());
+    let blob = kdray_tools::blob::Blob::read(Path::new(&scene)).unwrap();
+    let s = blob.scene().unwrap();
+    for (q, rec) in queries.iter().zip(bytes.chunks_exact(32)) {
+        let want = s
+            .closest_point_brute(*q, u32::MAX)
+            .unwrap()
+            .filter(|c| c.distance2 <= 25.0);
+        let r = kdray_tools::distance::SceneDistanceRecord::new(want, true);
+        assert_eq!(rec, bytemuck::bytes_of(&r), "{q:?}");
+    }
+    let inst = |k: usize| u32::from_le_bytes(bytes[32 * k + 28..32 * k + 32].try_into().unwrap());
+    assert_eq!([inst(0), inst(1), inst(2), inst(3)], [0, 1, 0, u32::MAX]);
+    let d = |k: usize| f32::from_le_bytes(bytes[32 * k + 24..32 * k + 28].try_into().unwrap());
+    assert_eq!([d(0), d(1), d(2), d(3)], [1.0, 1.0, 0.5, f32::INFINITY]);
+    // Signed: refused, naming why; nothing written.
+    let refused = dir.join("r.dist").display().to_string();
+    let o = kdray(&["distance", &scene, &pts, "-o", &refused, "--signed"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("--signed on a scene"), "{}", stderr(&o));
+    assert!(!Path::new(&refused).exists());
+}

@@ -70,7 +70,7 @@ impl Scene<'_> {
         if !q.iter().all(|c| c.is_finite()) {
             return Ok(None);
         }
-        self.refuse_unsimilar(mask)?;
+        self.check_similar(mask)?;
         for i in 0..self.instances.len() as u32 {
             let Some((inst, mesh)) = self.selected(i, mask) else {
                 continue;

@@ -216,10 +216,14 @@ impl Search<'_, '_> {
 }
 
 impl<'a> Scene<'a> {
-    /// The first instance `mask` selects whose transform is not a
-    /// similarity, as the refusal names it. O(1) when there is none (the
-    /// masks of such instances are merged once, at validation).
-    pub(super) fn refuse_unsimilar(&self, mask: u32) -> Result<(), NotSimilar> {
+    /// Does [`Scene::closest_point`] answer for `mask`: is every instance
+    /// it selects a similarity? O(1) when so (the masks of the others are
+    /// merged once, at validation).
+    ///
+    /// # Errors
+    /// [`NotSimilar`] naming the first selected instance that is scaled
+    /// unevenly or sheared: the closest-point queries' refusal.
+    pub fn check_similar(&self, mask: u32) -> Result<(), NotSimilar> {
         if self.unsimilar_masks & mask == 0 {
             return Ok(());
         }
@@ -272,7 +276,7 @@ impl<'a> Scene<'a> {
         if !q.iter().all(|c| c.is_finite()) {
             return Ok(None);
         }
-        self.refuse_unsimilar(mask)?;
+        self.check_similar(mask)?;
         if max_distance.is_nan() || max_distance < 0.0 {
             return Ok(None);
         }

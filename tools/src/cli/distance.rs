@@ -1,12 +1,15 @@
 //! `kdray distance TREE POINTS -o OUT [--signed [--votes N | --winding]]
 //! [--max-distance D] [--threads N]`: the closest point of a mesh to every
 //! query point, with its distance (signed: negative inside), as a `.dist`
-//! file (docs/formats.md).
+//! file (docs/formats.md). On a scene blob (`kdray build --instances`):
+//! over every instance, each record naming its instance (32 bytes).
 
 use super::json::JsonObject;
 use super::{plural, thread_pool, wrong_kind, CmdResult};
 use kdray_tools::blob::{Blob, BlobKind};
-use kdray_tools::distance::{distance_records, DistanceRecord, InsideRule};
+use kdray_tools::distance::{
+    distance_records, scene_distance_records, DistanceRecord, InsideRule, SceneDistanceRecord,
+};
 use kdray_tools::{io, memory};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -14,11 +17,13 @@ use std::time::Instant;
 /// Arguments of `kdray distance`.
 #[derive(clap::Args, Debug)]
 pub(crate) struct Args {
-    /// The triangle tree (.kdt, from `kdray build`).
+    /// The triangle tree (.kdt, from `kdray build`) or scene (from
+    /// `kdray build --instances`).
     tree: PathBuf,
     /// The query points (.pts: 3 f32 coordinates per point, docs/points.md).
     points: PathBuf,
-    /// Where to write the answers (.dist: 28 bytes per query, docs/formats.md).
+    /// Where to write the answers (.dist: 28 bytes per query, 32 with the
+    /// instance for a scene; docs/formats.md).
     #[arg(short, long)]
     output: PathBuf,
     /// Sign the distances: negative inside the mesh (by the parity of a
@@ -60,12 +65,15 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     };
     let pool = thread_pool(a.threads)?;
     let blob = Blob::read(&a.tree).map_err(|e| format!("{}: {e}", a.tree.display()))?;
-    if let kind @ (BlobKind::Scene | BlobKind::Points) = blob.kind() {
-        return Err(wrong_kind(&a.tree, kind, "distance", "a triangle tree").into());
+    if blob.kind() == BlobKind::Points {
+        return Err(wrong_kind(
+            &a.tree,
+            BlobKind::Points,
+            "distance",
+            "a triangle tree or a scene",
+        )
+        .into());
     }
-    let tree = blob
-        .tree()
-        .map_err(|e| format!("{}: invalid tree blob: {e}", a.tree.display()))?;
     let queries: Vec<[f32; 3]> = io::read_records(&a.points, "3-D f32 point")?;
     if let Some(i) = queries
         .iter()
@@ -78,6 +86,19 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         )
         .into());
     }
+    if blob.kind() == BlobKind::Scene {
+        if sign.is_some() {
+            return Err(format!(
+                "{}: --signed on a scene is not offered (each crossing of the sign's ray is not yet counted once per instance): build the scene's mesh file without --instances to sign",
+                a.tree.display()
+            )
+            .into());
+        }
+        return scene_distance(a, &pool, &blob, &queries, max_distance);
+    }
+    let tree = blob
+        .tree()
+        .map_err(|e| format!("{}: invalid tree blob: {e}", a.tree.display()))?;
     let mut out = memory::filled(
         queries.len(),
         DistanceRecord::new(None, true),
@@ -87,14 +108,68 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     pool.install(|| distance_records(&tree, &queries, max_distance, sign, &mut out));
     let seconds = t.elapsed().as_secs_f64();
     io::write_records(&a.output, &out)?;
-    let qps = queries.len() as f64 / seconds.max(1e-12);
     let missed = out.iter().filter(|r| r.prim == kdray_kernel::MISS).count();
+    let size = ("triangle", tree.triangles().len());
+    summary(
+        a,
+        &pool,
+        queries.len(),
+        seconds,
+        missed,
+        size,
+        sign.is_some(),
+    );
+    Ok(())
+}
+
+/// `kdray distance` on a scene blob: every instance, unsigned.
+fn scene_distance(
+    a: &Args,
+    pool: &rayon::ThreadPool,
+    blob: &Blob,
+    queries: &[[f32; 3]],
+    max_distance: f32,
+) -> CmdResult {
+    let scene = blob
+        .scene()
+        .map_err(|e| format!("{}: invalid scene blob: {e}", a.tree.display()))?;
+    let mut out = memory::filled(
+        queries.len(),
+        SceneDistanceRecord::new(None, true),
+        "distance records",
+    )?;
+    let t = Instant::now();
+    pool.install(|| scene_distance_records(&scene, queries, u32::MAX, max_distance, &mut out))
+        .map_err(|e| format!("{}: {e}", a.tree.display()))?;
+    let seconds = t.elapsed().as_secs_f64();
+    io::write_records(&a.output, &out)?;
+    let missed = out
+        .iter()
+        .filter(|r| r.instance == kdray_kernel::MISS)
+        .count();
+    let size = ("instance", scene.instances().len());
+    summary(a, pool, queries.len(), seconds, missed, size, false);
+    Ok(())
+}
+
+/// Prints the run's summary (or its JSON object) and the output's name;
+/// `size` counts what was searched (`"triangle"` or `"instance"`).
+fn summary(
+    a: &Args,
+    pool: &rayon::ThreadPool,
+    queries: usize,
+    seconds: f64,
+    missed: usize,
+    size: (&str, usize),
+    signed: bool,
+) {
+    let qps = queries as f64 / seconds.max(1e-12);
     if a.json {
         let j = JsonObject::default()
-            .with("triangles", tree.triangles().len())
-            .with("queries", queries.len())
+            .with(&format!("{}s", size.0), size.1)
+            .with("queries", queries)
             .with("beyond_max_distance", missed)
-            .with("signed", sign.is_some())
+            .with("signed", signed)
             .with("threads", pool.current_num_threads())
             .with("seconds", seconds)
             .with("queries_per_s", qps)
@@ -105,13 +180,10 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         say!("{}", j.finish());
     } else {
         say!(
-            "{} queries against {} triangles on {} in {seconds:.3} s: {qps:.0} queries/s (excluding file I/O); {} beyond the maximum distance",
-            queries.len(),
-            tree.triangles().len(),
+            "{queries} queries against {} on {} in {seconds:.3} s: {qps:.0} queries/s (excluding file I/O); {missed} beyond the maximum distance",
+            plural(size.1, size.0),
             plural(pool.current_num_threads(), "thread"),
-            missed
         );
         say!("wrote {}", a.output.display());
     }
-    Ok(())
 }

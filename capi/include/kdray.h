@@ -46,6 +46,10 @@ typedef enum {
   KDRAY_STATUS_WRONG_SHAPE = 7,
   // An argument is outside its documented range (`KdrayBatch::width`).
   KDRAY_STATUS_BAD_ARGUMENT = 8,
+  // A scene's closest point is refused: an instance the mask selects is
+  // scaled unevenly or sheared, so its nearest point in mesh space is
+  // not the nearest in the world (`kdray_scene_closest_point`).
+  KDRAY_STATUS_NOT_SIMILAR = 9,
 } KdrayStatus;
 
 // An opened triangle tree. Declare one (on the stack, in a struct, as a
@@ -312,6 +316,36 @@ typedef struct {
   // Private to the library.
   uint64_t opaque[KDRAY_HANDLE_WORDS];
 } KdrayScene;
+
+// A scene's closest point to a query: 40 bytes.
+//
+// The point is in world space; `prim_id` is the triangle's index in its
+// instance's mesh, `inst_id` the instance's index in the scene. No
+// instance within the maximum distance (or none selected):
+// `prim_id = inst_id = KDRAY_MISS`, the point, `u` and `v` NaN,
+// `distance2 = INFINITY` (NaN for a query with a NaN or infinite
+// coordinate).
+typedef struct {
+  // The closest point, x.
+  float x;
+  // The closest point, y.
+  float y;
+  // The closest point, z.
+  float z;
+  // Index of its triangle in its instance's mesh.
+  uint32_t prim_id;
+  // Barycentric weight of vertex 1.
+  float u;
+  // Barycentric weight of vertex 2.
+  float v;
+  // Index of its instance in the scene (the lowest among equally near
+  // ones).
+  uint32_t inst_id;
+  // Zero.
+  uint32_t reserved;
+  // The world squared distance from the query, computed in double.
+  double distance2;
+} KdraySceneClosestPoint;
 
 // A scene's closest hit: 20 bytes. `prim_id` is the triangle's index in
 // its instance's mesh, `inst_id` the instance's index in the scene (its
@@ -799,6 +833,48 @@ KdrayStatus kdray_first_hits(const KdrayTriangleTree *tree,
                              KdrayHit *hits,
                              size_t capacity,
                              size_t *count);
+
+// The closest point to the world point `point[0..3]` over the instances
+// of `*scene` whose mask shares a bit with `mask`, among those within
+// `max_distance` (`INFINITY`: no limit; NaN or negative: none), into
+// `*out` (see `KdraySceneClosestPoint` for no point): the smallest world
+// distance, then the lower instance, then the lower triangle, bit for
+// bit the kernel's `Scene::closest_point_within`.
+// `KDRAY_STATUS_NOT_SIMILAR` when a selected instance is scaled unevenly
+// or sheared (its nearest point in mesh space is not the world's).
+//
+// # Preconditions
+// - `scene`: opened by `kdray_scene_open` (else `KDRAY_STATUS_NOT_OPEN`),
+//   its blob still alive and unchanged.
+// - `point`: non-null, 4-byte aligned, 3 floats; `out` non-null, 8-byte
+//   aligned.
+//
+// # Safety
+// As the preconditions.
+KdrayStatus kdray_scene_closest_point(const KdrayScene *scene,
+                                      const float *point,
+                                      uint32_t mask,
+                                      float max_distance,
+                                      KdraySceneClosestPoint *out);
+
+// The closest points of `count` world points (`points`: `3 * count`
+// floats, x y z each), into `out[0..count]`: each as
+// `kdray_scene_closest_point`. On `KDRAY_STATUS_NOT_SIMILAR` nothing is
+// written.
+//
+// # Preconditions
+// As `kdray_scene_closest_point`, with `points` holding `3 * count`
+// floats and `out` `count` records, not overlapping (non-null even for
+// `count == 0`).
+//
+// # Safety
+// As the preconditions.
+KdrayStatus kdray_scene_closest_points(const KdrayScene *scene,
+                                       const float *points,
+                                       size_t count,
+                                       uint32_t mask,
+                                       float max_distance,
+                                       KdraySceneClosestPoint *out);
 
 // Opens the scene blob `blob[0..len]` into `*scene`, validating all of it
 // (header, sections, checksum, every mesh tree, every instance, the top

@@ -27,6 +27,7 @@ mod handle;
 mod message;
 mod points;
 mod rays;
+mod scene_distance;
 mod scenes;
 
 pub use distance::{
@@ -45,6 +46,9 @@ pub use rays::{
     kdray_closest_hits, kdray_first_hits, kdray_triangles_open, kdray_triangles_treelets,
     KdrayBatch, KdrayHit, KdrayHit16, KdrayHit4, KdrayHit8, KdrayHitN, KdrayRay, KdrayRay16,
     KdrayRay4, KdrayRay8, KdrayRayN, KdrayTreelet, KDRAY_MISS, KDRAY_OCCLUDED,
+};
+pub use scene_distance::{
+    kdray_scene_closest_point, kdray_scene_closest_points, KdraySceneClosestPoint,
 };
 pub use scenes::{
     kdray_scene_any_hit, kdray_scene_closest_hit, kdray_scene_first_hits, kdray_scene_open,
@@ -78,6 +82,10 @@ pub enum KdrayStatus {
     WrongShape = 7,
     /// An argument is outside its documented range (`KdrayBatch::width`).
     BadArgument = 8,
+    /// A scene's closest point is refused: an instance the mask selects is
+    /// scaled unevenly or sheared, so its nearest point in mesh space is
+    /// not the nearest in the world (`kdray_scene_closest_point`).
+    NotSimilar = 9,
 }
 
 /// A static, NUL-terminated sentence naming the `KdrayStatus` value `status`.
@@ -103,6 +111,7 @@ fn status_text(code: i32) -> &'static core::ffi::CStr {
         6 => c"the output buffer is too small",
         7 => c"the query's dimension or scalar type is not the point tree's",
         8 => c"an argument is outside its documented range",
+        9 => c"an instance the mask selects is scaled unevenly or sheared: no closest point",
         _ => c"unknown status",
     }
 }

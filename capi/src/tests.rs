@@ -742,6 +742,122 @@ fn a_scene_answers_as_the_kernel_and_a_tree_handle_is_not_a_scene() {
 }
 
 #[test]
+fn a_scenes_closest_point_is_the_kernels() {
+    let mut h = KdrayScene {
+        opaque: [0; KDRAY_HANDLE_WORDS],
+    };
+    // SAFETY: a live handle, the static blob, no message buffer.
+    let s = unsafe {
+        kdray_scene_open(
+            &mut h,
+            SCENE.bytes.as_ptr(),
+            SCENE.bytes.len(),
+            core::ptr::null_mut(),
+            0,
+        )
+    };
+    assert_eq!(s, KdrayStatus::Ok);
+    let scene = kdray_kernel::Scene::from_bytes(&SCENE.bytes).unwrap();
+    // Above the first quad, beside the second, between them, and bad ones.
+    let qs: [[f32; 3]; 5] = [
+        [0.5, 0.5, 6.0],
+        [2.0, 1.0, -0.5],
+        [1.0, 0.5, 2.5],
+        [f32::NAN, 0.0, 0.0],
+        [0.0, f32::INFINITY, 0.0],
+    ];
+    let mut out = [KdraySceneClosestPoint::zeroed(); 5];
+    for (mask, max) in [(u32::MAX, f32::INFINITY), (1, 0.75), (2, 3.0), (0, 1.0)] {
+        // SAFETY: live handle, 5 points and 5 records.
+        let s = unsafe {
+            kdray_scene_closest_points(&h, qs.as_ptr().cast(), 5, mask, max, out.as_mut_ptr())
+        };
+        assert_eq!(s, KdrayStatus::Ok);
+        for (q, o) in qs.iter().zip(&out) {
+            let want = scene.closest_point_within(*q, mask, max).unwrap();
+            match want {
+                Some(c) => {
+                    assert_eq!([o.x, o.y, o.z], c.point);
+                    assert_eq!((o.prim_id, o.inst_id, o.reserved), (c.prim, c.instance, 0));
+                    assert_eq!([o.u, o.v], [c.u, c.v]);
+                    assert_eq!(o.distance2.to_bits(), c.distance2.to_bits());
+                }
+                None => {
+                    assert_eq!((o.prim_id, o.inst_id), (KDRAY_MISS, KDRAY_MISS));
+                    assert!(o.x.is_nan() && o.u.is_nan());
+                    let finite = q.iter().all(|c| c.is_finite());
+                    assert_eq!(o.distance2.is_nan(), !finite, "{q:?}");
+                }
+            }
+        }
+    }
+    assert_eq!(
+        (out[0].inst_id, out[0].distance2),
+        (KDRAY_MISS, f64::INFINITY)
+    );
+    let mut one = KdraySceneClosestPoint::zeroed();
+    // SAFETY: live handle and records.
+    let s = unsafe { kdray_scene_closest_point(&h, qs[0].as_ptr(), u32::MAX, f32::NAN, &mut one) };
+    assert_eq!((s, one.inst_id), (KdrayStatus::Ok, KDRAY_MISS));
+    // SAFETY: null pointers are refused before any read.
+    let s = unsafe { kdray_scene_closest_point(&h, core::ptr::null(), 1, 1.0, &mut one) };
+    assert_eq!(s, KdrayStatus::NullPointer);
+    // A tree handle is not a scene handle.
+    let tree = open_cube();
+    let scene_of_tree: *const KdrayScene = (&tree as *const KdrayTriangleTree).cast();
+    // SAFETY: a readable handle-sized struct.
+    let s = unsafe { kdray_scene_closest_point(scene_of_tree, qs[0].as_ptr(), 1, 1.0, &mut one) };
+    assert_eq!(s, KdrayStatus::NotOpen);
+    // SAFETY: a static NUL-terminated string.
+    let t = unsafe { CStr::from_ptr(kdray_status_text(KdrayStatus::NotSimilar as i32)) };
+    assert!(t.to_str().unwrap().contains("unevenly"));
+
+    // A scene with an instance squashed along y: refused for a mask that
+    // selects it, nothing written; answered for one that does not.
+    use kdray_tools::instances::{build_scene, placement, sphere};
+    let squash = placement([0.0, 0.0, 1.0], 0.0, [1.0, 0.5, 1.0], [4.0, 0.0, 0.0]);
+    let insts = [
+        kdray_kernel::Instance::new(0, kdray_kernel::IDENTITY, 0, 1).unwrap(),
+        kdray_kernel::Instance::new(0, squash, 1, 2).unwrap(),
+    ];
+    let parts = build_scene(
+        &[sphere(4, 6)],
+        insts.to_vec(),
+        Default::default(),
+        &Default::default(),
+    )
+    .unwrap();
+    let blob = parts.write().unwrap();
+    let mut sh = KdrayScene {
+        opaque: [0; KDRAY_HANDLE_WORDS],
+    };
+    // SAFETY: a live handle and blob, no message buffer.
+    let s = unsafe {
+        kdray_scene_open(
+            &mut sh,
+            blob.as_bytes().as_ptr(),
+            blob.as_bytes().len(),
+            core::ptr::null_mut(),
+            0,
+        )
+    };
+    assert_eq!(s, KdrayStatus::Ok);
+    let mut untouched = KdraySceneClosestPoint::zeroed();
+    for (mask, want) in [
+        (u32::MAX, KdrayStatus::NotSimilar),
+        (2, KdrayStatus::NotSimilar),
+        (1, KdrayStatus::Ok),
+    ] {
+        untouched.prim_id = 77;
+        // SAFETY: live handle and records.
+        let s =
+            unsafe { kdray_scene_closest_point(&sh, qs[0].as_ptr(), mask, 100.0, &mut untouched) };
+        assert_eq!(s, want, "mask {mask}");
+        assert_eq!(untouched.prim_id == 77, want == KdrayStatus::NotSimilar);
+    }
+}
+
+#[test]
 fn treelets_give_a_batch_the_same_answers() {
     // A tree of several levels (the cube is one leaf): a soup of small
     // triangles, its blob kept for the handle's life.

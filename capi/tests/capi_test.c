@@ -4,7 +4,7 @@
  * for capi/tests/run.sh to compare with the Rust API's (`kdray trace`,
  * `kdray knn`), byte for byte.
  *
- * usage: capi_test TRIANGLE_BLOB POINT_BLOB POINTS_PTS OUT_DIR
+ * usage: capi_test TRIANGLE_BLOB POINT_BLOB POINTS_PTS OUT_DIR SCENE_BLOB
  * writes OUT_DIR/{rays.rays, closest.hits, any.hits, queries.pts, knn5.knn}
  */
 #include "kdray.h"
@@ -314,9 +314,52 @@ static void check_points(const uint8_t *blob, size_t len, const float *pts, size
   printf("points: %d queries, k = %d, radius queries equal brute force\n", QUERIES, K);
 }
 
+/* A scene's closest point (capi/tests/data/two-quads-scene.kdt: a unit
+   quad at z = 5, and the same quad turned a quarter, doubled and moved to
+   x in [1, 3], y in [0, 2], z = 0), in 64-byte aligned memory. */
+static void check_scene(const char *path) {
+  size_t len;
+  uint8_t *raw = read_file(path, &len);
+  uint8_t *blob = aligned_alloc(64, (len + 63) / 64 * 64);
+  if (!blob) {
+    fprintf(stderr, "out of memory\n");
+    exit(2);
+  }
+  memcpy(blob, raw, len);
+  free(raw);
+  KdrayScene scene;
+  KdrayStatus s = kdray_scene_open(&scene, blob, len, NULL, 0);
+  CHECK(s == KDRAY_STATUS_OK, "open the scene: %d", (int)s);
+  const float pts[4][3] = {{0.5f, 0.5f, 6.0f}, {2.0f, 1.0f, -0.5f}, {NAN, 0.0f, 0.0f}, {9.0f, 9.0f, 9.0f}};
+  KdraySceneClosestPoint cp[4];
+  s = kdray_scene_closest_points(&scene, &pts[0][0], 4, 0xFFFFFFFFu, 5.0f, cp);
+  CHECK(s == KDRAY_STATUS_OK, "status %d", (int)s);
+  CHECK(cp[0].inst_id == 0 && cp[0].x == 0.5f && cp[0].y == 0.5f && cp[0].z == 5.0f && cp[0].distance2 == 1.0,
+        "above the first quad: instance %u at (%g %g %g) d2 %g", cp[0].inst_id, cp[0].x, cp[0].y, cp[0].z,
+        cp[0].distance2);
+  CHECK(cp[1].inst_id == 1 && fabs(cp[1].distance2 - 0.25) < 1e-6 && fabsf(cp[1].x - 2.0f) < 1e-6f,
+        "below the second: instance %u d2 %g", cp[1].inst_id, cp[1].distance2);
+  CHECK(cp[2].inst_id == KDRAY_MISS && isnan(cp[2].distance2), "a NaN query has no point");
+  CHECK(cp[3].inst_id == KDRAY_MISS && cp[3].prim_id == KDRAY_MISS && isinf(cp[3].distance2),
+        "beyond the maximum distance");
+  /* Mask 1 selects only the first quad; mask 0 nothing. */
+  KdraySceneClosestPoint one;
+  CHECK(kdray_scene_closest_point(&scene, pts[1], 1, INFINITY, &one) == KDRAY_STATUS_OK && one.inst_id == 0,
+        "mask 1: instance %u", one.inst_id);
+  CHECK(kdray_scene_closest_point(&scene, pts[1], 0, INFINITY, &one) == KDRAY_STATUS_OK &&
+            one.inst_id == KDRAY_MISS,
+        "mask 0");
+  CHECK(kdray_scene_closest_point(&scene, pts[1], 1, NAN, &one) == KDRAY_STATUS_OK && one.inst_id == KDRAY_MISS,
+        "a NaN maximum distance: none");
+  CHECK(kdray_scene_closest_point(&scene, NULL, 1, 1.0f, &one) == KDRAY_STATUS_NULL_POINTER, "null point");
+  CHECK(kdray_scene_closest_point(&scene, pts[0], 1, 1.0f, NULL) == KDRAY_STATUS_NULL_POINTER, "null out");
+  free(blob);
+  printf("scene: closest points over instances, masks and bad input\n");
+}
+
 int main(int argc, char **argv) {
-  if (argc != 5) {
-    fprintf(stderr, "usage: %s TRIANGLE_BLOB POINT_BLOB POINTS_PTS OUT_DIR\n", argv[0]);
+  if (argc != 6) {
+    fprintf(stderr, "usage: %s TRIANGLE_BLOB POINT_BLOB POINTS_PTS OUT_DIR SCENE_BLOB\n", argv[0]);
     return 2;
   }
   printf("kdray %s\n", kdray_version());
@@ -327,6 +370,7 @@ int main(int argc, char **argv) {
   check_arguments(tri, tri_len);
   check_rays(tri, tri_len, argv[4]);
   check_points(pts_blob, pts_blob_len, pts, pts_len / 12, argv[4]);
+  check_scene(argv[5]);
 
   /* A triangle blob is not a point tree. */
   char msg[256];

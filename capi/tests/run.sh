@@ -55,7 +55,7 @@ cube=kernel/golden/cube-v3.kdt
 grid=capi/tests/data/grid-100.kdt
 for kind in static dynamic; do
   d=$out/$kind
-  "$out/capi_test_$kind" "$cube" "$grid" capi/tests/data/grid-100.pts "$d"
+  "$out/capi_test_$kind" "$cube" "$grid" capi/tests/data/grid-100.pts "$d" capi/tests/data/two-quads-scene.kdt
   "$kdray" trace "$cube" "$d/rays.rays" -o "$d/rust-closest.hits" >/dev/null
   "$kdray" trace "$cube" "$d/rays.rays" -o "$d/rust-any.hits" --any-hit >/dev/null
   "$kdray" knn capi/tests/data/grid-100.pts "$d/queries.pts" -k 5 -o "$d/rust-knn5.knn" >/dev/null

@@ -46,6 +46,12 @@ MISS = 0xFFFFFFFF
 
 _F32 = np.dtype(np.float32)
 
+_NO_SCENE_SIGN = (
+    "signed distance and occupancy are not offered on a Scene: each crossing of the "
+    "sign's ray is not yet counted once per instance; build a TriangleTree from the "
+    "scene's mesh file (TriangleTree.from_file) to sign"
+)
+
 
 # --- argument checks -------------------------------------------------------
 
@@ -525,6 +531,49 @@ class Scene(_RayQueries):
         if packet not in (1, 4, 8, 16):
             raise ValueError(f"packet must be 1, 4, 8 or 16, not {packet}")
         return self._tree.occluded(rays, nthreads)  # type: ignore[no-any-return]
+
+    def compute_closest_points(
+        self, query_points: npt.ArrayLike, nthreads: int = 0
+    ) -> dict[str, np.ndarray]:
+        """The closest point on any instance to each query, as :meth:`TriangleTree.compute_closest_points`.
+
+        Returns ``points`` (world space), ``geometry_ids`` (uint32, the
+        instance; :data:`MISS` for none), ``primitive_ids`` (the triangle
+        in that instance's mesh), ``primitive_uvs`` and
+        ``primitive_normals`` (world space), each of the queries' leading
+        shape. Distances are measured in world space: at equal distance
+        the lower instance, then the lower triangle, bit for bit the answer
+        of testing every instance's every triangle. An instance scaled
+        unevenly or sheared makes the call raise ``ValueError`` naming it
+        (its nearest point in mesh space is not the nearest in the world).
+        """
+        q, lead = _points(query_points)
+        out = self._tree.closest_points(q, _nthreads(nthreads))
+        names = ("points", "geometry_ids", "primitive_ids", "primitive_uvs", "primitive_normals")
+        tails = ((3,), (), (), (2,), (3,))
+        return {n: a.reshape(lead + t) for n, a, t in zip(names, out, tails)}
+
+    def compute_distance(self, query_points: npt.ArrayLike, nthreads: int = 0) -> np.ndarray:
+        """The world distance from each query ``(..., 3)`` to the nearest instance: float32, of the leading shape.
+
+        As :meth:`TriangleTree.compute_distance`; NaN for a query with a
+        NaN or infinite coordinate, inf for a scene with no instances.
+        """
+        q, lead = _points(query_points)
+        return self._tree.distances(q, _nthreads(nthreads)).reshape(lead)  # type: ignore[no-any-return]
+
+    def compute_signed_distance(self, *args: Any, **kwargs: Any) -> np.ndarray:
+        """Not offered on a scene: raises ``NotImplementedError``.
+
+        The inside rules compose over instances (a ray's crossings add), but
+        counting each crossing once through the top level is not built;
+        build a :class:`TriangleTree` from the scene's mesh file to sign.
+        """
+        raise NotImplementedError(_NO_SCENE_SIGN)
+
+    def compute_occupancy(self, *args: Any, **kwargs: Any) -> np.ndarray:
+        """Not offered on a scene: raises ``NotImplementedError`` (see :meth:`compute_signed_distance`)."""
+        raise NotImplementedError(_NO_SCENE_SIGN)
 
     def __reduce_ex__(self, protocol: Any) -> tuple[Any, tuple[Any, ...]]:
         return _reduce(self, int(protocol), _scene)

@@ -56,6 +56,15 @@ _CLOSEST = np.dtype(
         ("primitive_normals", np.float32, (3,)),
     ]
 )
+_SCENE_CLOSEST = np.dtype(
+    [
+        ("points", np.float32, (3,)),
+        ("geometry_ids", np.uint32),
+        ("primitive_ids", np.uint32),
+        ("primitive_uvs", np.float32, (2,)),
+        ("primitive_normals", np.float32, (3,)),
+    ]
+)
 _SCENE_HIT = np.dtype(
     [
         ("t_hit", np.float32),
@@ -172,23 +181,29 @@ def cast_rays(tree: TriangleTree | Scene, rays: Any, nthreads: int = 0) -> dict[
     return _by_records(_rows(rays, 6, "rays"), tree, "cast_rays", (nthreads,), dtype)
 
 
-def _points(tree: Any, query_points: Any) -> Any:
-    if not isinstance(tree, TriangleTree):
-        raise TypeError(f"tree: expected a kdray.TriangleTree, got {type(tree)}")
+def _points(tree: Any, query_points: Any, scene: bool = True) -> Any:
+    """The query points' dask array, for a tree (and, where ``scene``, a scene) that answers them."""
+    if not isinstance(tree, (TriangleTree, Scene) if scene else TriangleTree):
+        want = "a kdray.TriangleTree or kdray.Scene" if scene else "a kdray.TriangleTree"
+        raise TypeError(f"tree: expected {want}, got {type(tree)}")
     return _rows(query_points, 3, "query_points")
 
 
-def compute_closest_points(tree: TriangleTree, query_points: Any, nthreads: int = 0) -> dict[str, Any]:
+def compute_closest_points(
+    tree: TriangleTree | Scene, query_points: Any, nthreads: int = 0
+) -> dict[str, Any]:
     """``tree.compute_closest_points`` over a dask array ``(N, 3)`` chunked by rows.
 
-    Returns the same names as the direct call, as dask arrays chunked as
+    Returns the same names as the direct call (with ``geometry_ids`` for
+    a :class:`~kdray.Scene`), as dask arrays chunked as
     ``query_points``; compute them together to answer each block once.
     """
     q = _points(tree, query_points)
-    return _by_records(q, tree, "compute_closest_points", (nthreads,), _CLOSEST)
+    dtype = _SCENE_CLOSEST if isinstance(tree, Scene) else _CLOSEST
+    return _by_records(q, tree, "compute_closest_points", (nthreads,), dtype)
 
 
-def compute_distance(tree: TriangleTree, query_points: Any, nthreads: int = 0) -> Any:
+def compute_distance(tree: TriangleTree | Scene, query_points: Any, nthreads: int = 0) -> Any:
     """``tree.compute_distance`` over a dask array ``(N, 3)`` chunked by rows: ``(N,)`` float32."""
     return _by_row(_points(tree, query_points), tree, "compute_distance", (nthreads,), np.float32)
 
@@ -197,7 +212,7 @@ def _inside(
     method: str, tree: TriangleTree, query_points: Any, nthreads: int, nsamples: int, winding: bool
 ) -> Any:
     """A call that takes ``nsamples`` and ``winding`` (the inside rule), checked before any block runs."""
-    q = _points(tree, query_points)
+    q = _points(tree, query_points, scene=False)
     return _by_row(q, tree, method, (nthreads, *_inside_rule(nsamples, winding)), np.float32)
 
 

@@ -1,12 +1,16 @@
 //! `Scene`: a scene blob of instanced meshes (`kdray build --instances`)
-//! and its ray queries, each hit naming its instance (`geometry_ids`).
+//! and its ray and distance queries, each answer naming its instance
+//! (`geometry_ids`).
 
 use crate::arrays::table;
+use crate::distance::point_slice;
 use crate::held::{Held, HeldScene};
 use crate::pools;
 use crate::rays::{hit_lists, map_all, ray_slice, unit_normal};
-use kdray_kernel::{Instance, Scene as KernelScene, SceneHit, Triangle, MISS};
+use kdray_kernel::{Instance, Scene as KernelScene, SceneClosestPoint, SceneHit, Triangle, MISS};
+use kdray_tools::distance::{scene_distance_records, SceneDistanceRecord};
 use kdray_tools::instances::transform_point;
+use pyo3::exceptions::PyValueError;
 use numpy::{PyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 use std::path::PathBuf;
@@ -37,6 +41,45 @@ type SceneHits<'py> = (
     Bound<'py, PyArray1<u32>>,
     Bound<'py, PyAny>,
 );
+
+/// `(points, geometry_ids, primitive_ids, primitive_uvs,
+/// primitive_normals)` of `compute_closest_points` on a scene.
+type SceneClosest<'py> = (
+    Bound<'py, PyAny>,
+    Bound<'py, PyArray1<u32>>,
+    Bound<'py, PyArray1<u32>>,
+    Bound<'py, PyAny>,
+    Bound<'py, PyAny>,
+);
+
+/// `(points, geometry_ids, primitive_ids, primitive_uvs, squared
+/// distances)` of the brute force, for tests.
+type SceneClosestBrute<'py> = (
+    Bound<'py, PyAny>,
+    Bound<'py, PyArray1<u32>>,
+    Bound<'py, PyArray1<u32>>,
+    Bound<'py, PyAny>,
+    Bound<'py, PyArray1<f64>>,
+);
+
+/// The scene `.dist` records of `queries` on the `nthreads` pool, the GIL
+/// released; a scene whose instances are not all similarities is refused
+/// by a `ValueError` naming the first (the kernel's message).
+fn records(
+    py: Python<'_>,
+    scene: &KernelScene<'_>,
+    queries: &[[f32; 3]],
+    nthreads: usize,
+) -> PyResult<Vec<SceneDistanceRecord>> {
+    py.detach(|| {
+        let mut out = vec![SceneDistanceRecord::new(None, true); queries.len()];
+        pools::install(nthreads, || {
+            scene_distance_records(scene, queries, ALL, f32::INFINITY, &mut out)
+        })?
+        .map_err(|e| PyValueError::new_err(format!("scene distance: {e}")))?;
+        Ok(out)
+    })
+}
 
 /// The unit normal, in world space, of triangle `prim` of `instance`.
 fn world_normal(scene: &KernelScene<'_>, instance: u32, prim: u32) -> [f32; 3] {
@@ -194,6 +237,87 @@ impl Scene {
             })
         })?;
         hit_arrays(py, lists.splits, &lists.hits)
+    }
+
+    /// The closest point of each query over every instance:
+    /// `(points, geometry_ids, primitive_ids, primitive_uvs,
+    /// primitive_normals)`, world space.
+    fn closest_points<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f32>,
+        nthreads: usize,
+    ) -> PyResult<SceneClosest<'py>> {
+        let queries = point_slice(&points)?;
+        let scene = self.held.scene();
+        let recs = records(py, scene, queries, nthreads)?;
+        let normals = py.detach(|| {
+            map_all(&recs, nthreads, |r| {
+                if r.instance == MISS {
+                    [0.0; 3]
+                } else {
+                    world_normal(scene, r.instance, r.record.prim)
+                }
+            })
+        })?;
+        Ok((
+            table(py, recs.iter().map(|r| r.record.point).collect())?,
+            PyArray1::from_vec(py, recs.iter().map(|r| r.instance).collect()),
+            PyArray1::from_vec(py, recs.iter().map(|r| r.record.prim).collect()),
+            table(py, recs.iter().map(|r| [r.record.u, r.record.v]).collect())?,
+            table(py, normals)?,
+        ))
+    }
+
+    /// The distance of each query to the nearest instance (NaN for a
+    /// query with a NaN or infinite coordinate).
+    fn distances<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f32>,
+        nthreads: usize,
+    ) -> PyResult<Bound<'py, PyArray1<f32>>> {
+        let queries = point_slice(&points)?;
+        let recs = records(py, self.held.scene(), queries, nthreads)?;
+        Ok(PyArray1::from_vec(
+            py,
+            recs.iter().map(|r| r.record.distance).collect(),
+        ))
+    }
+
+    /// The oracle of `closest_points` (`Scene::closest_point_brute`: every
+    /// instance's every triangle), with the squared distances, for tests.
+    fn closest_points_brute<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f32>,
+    ) -> PyResult<SceneClosestBrute<'py>> {
+        let queries = point_slice(&points)?;
+        let scene = self.held.scene();
+        let found: Vec<Option<SceneClosestPoint>> = py
+            .detach(|| {
+                queries
+                    .iter()
+                    .map(|q| scene.closest_point_brute(*q, ALL))
+                    .collect::<Result<_, _>>()
+            })
+            .map_err(|e| PyValueError::new_err(format!("scene distance: {e}")))?;
+        Ok((
+            table(
+                py,
+                found.iter().map(|c| c.map_or([f32::NAN; 3], |c| c.point)).collect(),
+            )?,
+            PyArray1::from_vec(py, found.iter().map(|c| c.map_or(MISS, |c| c.instance)).collect()),
+            PyArray1::from_vec(py, found.iter().map(|c| c.map_or(MISS, |c| c.prim)).collect()),
+            table(
+                py,
+                found.iter().map(|c| c.map_or([f32::NAN; 2], |c| [c.u, c.v])).collect(),
+            )?,
+            PyArray1::from_vec(
+                py,
+                found.iter().map(|c| c.map_or(f64::NAN, |c| c.distance2)).collect(),
+            ),
+        ))
     }
 
     /// The oracle of `cast` (every instance's every triangle), for tests.

@@ -76,6 +76,24 @@ def test_two_worker_processes() -> None:
         check(*inputs())
 
 
+def test_scene_distances_by_blocks(tmp_path_factory: pytest.TempPathFactory) -> None:
+    from test_scene import built_scene
+
+    scene = kdray.Scene.load(built_scene(tmp_path_factory, squash=False))
+    q = (np.random.default_rng(5).random((4000, 3)) * 8 - 4).astype(np.float32)
+    dq = da.from_array(q, chunks=(1500, 3))
+    cp = kd.compute_closest_points(scene, dq)
+    got = dict(zip(cp, dask.compute(*cp.values())))
+    want = scene.compute_closest_points(q)
+    assert got.keys() == want.keys()
+    for k in want:
+        np.testing.assert_array_equal(got[k].view(np.uint32), want[k].view(np.uint32), err_msg=k)
+    d = kd.compute_distance(scene, dq).compute()
+    np.testing.assert_array_equal(d, scene.compute_distance(q))
+    with pytest.raises(TypeError, match="TriangleTree"):
+        kd.compute_occupancy(scene, dq)  # type: ignore[arg-type]
+
+
 def test_wrong_arrays_are_refused() -> None:
     tree, _, kd_tree, _ = inputs()
     with pytest.raises(ValueError, match="rays"):

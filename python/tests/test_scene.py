@@ -15,8 +15,8 @@ from conftest import kdray_cli, random_rays, soup, sphere
 import kdray
 
 
-def gltf(path: Path) -> None:
-    """A glTF file of two meshes placed by four nodes (one scaled, one rotated)."""
+def gltf(path: Path, squash: bool = False) -> None:
+    """A glTF file of two meshes placed by four nodes (one scaled, one rotated; ``squash``: a fifth scaled unevenly)."""
     meshes = [sphere(8, 16), soup(200, 3)]
     blob, views, accessors, gl_meshes = b"", [], [], []
     for v, f in meshes:
@@ -35,10 +35,12 @@ def gltf(path: Path) -> None:
         {"mesh": 1, "translation": [0, 3, 0], "scale": [2, 2, 2]},
         {"mesh": 1, "rotation": [0, 0, 0.7071068, 0.7071068], "translation": [0, -3, 0]},
     ]
+    if squash:
+        nodes.append({"mesh": 0, "translation": [0, 0, 6], "scale": [1, 0.5, 1]})
     doc = {
         "asset": {"version": "2.0"},
         "scene": 0,
-        "scenes": [{"nodes": [0, 1, 2, 3]}],
+        "scenes": [{"nodes": list(range(len(nodes)))}],
         "nodes": nodes,
         "meshes": gl_meshes,
         "buffers": [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode()}],
@@ -50,11 +52,15 @@ def gltf(path: Path) -> None:
 
 @pytest.fixture(scope="module")
 def scene_blob(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return built_scene(tmp_path_factory, squash=False)
+
+
+def built_scene(tmp_path_factory: pytest.TempPathFactory, squash: bool) -> Path:
     cli = kdray_cli()
     if cli is None:
         pytest.skip("no kdray binary (cargo build --release, or set KDRAY_BIN)")
     d = tmp_path_factory.mktemp("scene")
-    gltf(d / "scene.gltf")
+    gltf(d / "scene.gltf", squash)
     subprocess.run([cli, "build", d / "scene.gltf", "--instances", "-o", d / "scene.kdt"], check=True, capture_output=True)
     return d / "scene.kdt"
 
@@ -96,3 +102,52 @@ def test_scene_blob_round_trips(scene_blob: Path, tmp_path: Path) -> None:
     assert (tmp_path / "again.kdt").read_bytes() == blob
     with pytest.raises(kdray.BlobError, match="scene"):
         kdray.Scene.from_bytes(blob[:-8])
+
+
+def test_scene_distances_equal_brute_force(scene_blob: Path) -> None:
+    scene = kdray.Scene.load(scene_blob)
+    rng = np.random.default_rng(4)
+    q = (rng.random((3000, 3)) * [10, 12, 5] - [4, 6, 2.5]).astype(np.float32)
+    got = scene.compute_closest_points(q.reshape(30, 100, 3))
+    names = ["points", "geometry_ids", "primitive_ids", "primitive_uvs", "primitive_normals"]
+    assert list(got) == names
+    assert got["points"].shape == (30, 100, 3) and got["geometry_ids"].shape == (30, 100)
+    points, inst, prim, uvs, d2 = scene._tree.closest_points_brute(q)
+    for name, want in (("points", points), ("geometry_ids", inst), ("primitive_ids", prim), ("primitive_uvs", uvs)):
+        g = got[name].reshape(want.shape)
+        np.testing.assert_array_equal(g.view(np.uint32), want.view(np.uint32), err_msg=name)
+    assert set(np.unique(inst)) == {0, 1, 2, 3}
+    normals = got["primitive_normals"].reshape(-1, 3)
+    np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, rtol=1e-5)
+    d = scene.compute_distance(q)
+    np.testing.assert_array_equal(d, np.sqrt(d2).astype(np.float32))
+    # The point reported lies at the distance reported.
+    np.testing.assert_allclose(np.linalg.norm(points - q, axis=1), d, rtol=1e-4, atol=1e-5)
+    for threads in (1, 2):
+        np.testing.assert_array_equal(scene.compute_distance(q, nthreads=threads), d)
+
+
+def test_scene_distances_refuse_what_they_cannot_answer(
+    scene_blob: Path, tmp_path_factory: pytest.TempPathFactory
+) -> None:
+    scene = kdray.Scene.load(scene_blob)
+    bad = np.array([[np.nan, 0, 0], [0, np.inf, 0], [0.5, 0.5, 0.5]], np.float32)
+    d = scene.compute_distance(bad)
+    assert np.isnan(d[:2]).all() and np.isfinite(d[2])
+    cp = scene.compute_closest_points(bad)
+    assert (cp["geometry_ids"][:2] == kdray.MISS).all() and (cp["primitive_ids"][:2] == kdray.MISS).all()
+    assert np.isnan(cp["points"][:2]).all() and (cp["primitive_normals"][:2] == 0).all()
+    assert scene.compute_distance(np.zeros((0, 3))).shape == (0,)
+    with pytest.raises(ValueError, match="query_points"):
+        scene.compute_distance(np.zeros((4, 2)))
+    with pytest.raises(NotImplementedError, match="not offered on a Scene"):
+        scene.compute_signed_distance(bad)
+    with pytest.raises(NotImplementedError, match="not offered on a Scene"):
+        scene.compute_occupancy(bad)
+    squashed = kdray.Scene.load(built_scene(tmp_path_factory, squash=True))
+    with pytest.raises(ValueError, match="instance 4 is scaled unevenly"):
+        squashed.compute_distance(bad)
+    with pytest.raises(ValueError, match="instance 4"):
+        squashed.compute_closest_points(bad)
+    # Its rays still trace.
+    assert squashed.cast_rays(np.array([[0, 0, 9, 0, 0, -1]], np.float32))["geometry_ids"][0] == 4

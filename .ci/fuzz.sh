@@ -26,7 +26,7 @@ fi
 
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
-for target in blob packet_vs_single tree_vs_brute scene_blob point_blob deforming; do
+for target in blob packet_vs_single tree_vs_brute scene_blob point_blob deforming distance; do
     echo "fuzz: $target for ${secs}s"
     mkdir -p "$work/$target"
     # -rss_limit_mb: libFuzzer's default 2 GB is fine; -timeout catches

@@ -30,6 +30,7 @@ fn seed_corpora_replay() {
     assert!(replay_dir("fuzz/corpus/scene_blob", checks::scene_blob) >= 2);
     assert!(replay_dir("fuzz/corpus/point_blob", checks::point_blob) >= 3);
     assert!(replay_dir("fuzz/corpus/deforming", checks::deforming) >= 3);
+    assert!(replay_dir("fuzz/corpus/distance", checks::distance) >= 4);
 }
 
 /// The raw-blob seeds of the `blob` target carry the whole-blob checksum

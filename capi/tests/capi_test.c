@@ -342,10 +342,11 @@ static void check_scene(const char *path) {
   CHECK(cp[2].inst_id == KDRAY_MISS && isnan(cp[2].distance2), "a NaN query has no point");
   CHECK(cp[3].inst_id == KDRAY_MISS && cp[3].prim_id == KDRAY_MISS && isinf(cp[3].distance2),
         "beyond the maximum distance");
-  /* Mask 1 selects only the first quad; mask 0 nothing. */
+  /* One point at a time: the same record; mask 0 selects nothing. */
   KdraySceneClosestPoint one;
-  CHECK(kdray_scene_closest_point(&scene, pts[1], 1, INFINITY, &one) == KDRAY_STATUS_OK && one.inst_id == 0,
-        "mask 1: instance %u", one.inst_id);
+  CHECK(kdray_scene_closest_point(&scene, pts[1], 0xFFFFFFFFu, 5.0f, &one) == KDRAY_STATUS_OK &&
+            memcmp(&one, &cp[1], sizeof one) == 0,
+        "one point: instance %u", one.inst_id);
   CHECK(kdray_scene_closest_point(&scene, pts[1], 0, INFINITY, &one) == KDRAY_STATUS_OK &&
             one.inst_id == KDRAY_MISS,
         "mask 0");

@@ -20,14 +20,22 @@
 //!   brute force's.
 //! - [`deforming`]: the same scenes moved over a few frames, a kept
 //!   deforming mesh's tree against brute force each frame.
+//! - [`distance`]: query points (NaN, infinities, extremes) and maximum
+//!   distances (negative, NaN, infinite): on small scenes built by every
+//!   builder the closest point within the maximum and the (winding)
+//!   crossings are brute force's; on a scene of instances (uniform
+//!   scales, mirrors; or uneven, refused) the top-level walk's closest
+//!   point is brute force's; on an edited or arbitrary blob every query
+//!   returns.
 
 use kdray::kernel::format::wire::{
     blob_checksum, Header, ENDIAN_CHECK, KIND_TRIANGLES, MAGIC, VERSION,
 };
 use kdray::kernel::{
     any_hit_brute, closest_hit_brute, closest_point_brute, crossings_brute, first_hits_brute,
-    Batch, Hit, MortonGrid, Node, Packet, Packet4, Packet8, PacketWidth, Ray, RayKey, SceneHit,
-    ShallowTree, Streams, Treelet, Triangle, TriangleTree, STREAM_SCRATCH_WORDS,
+    winding_crossings_brute, Batch, Hit, MortonGrid, Node, Packet, Packet4, Packet8, PacketWidth,
+    Ray, RayKey, SceneHit, ShallowTree, Streams, Treelet, Triangle, TriangleTree,
+    STREAM_SCRATCH_WORDS,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
@@ -626,6 +634,172 @@ pub fn scene_blob(data: &[u8]) {
             scene.any_hit_brute(&ray, mask),
             "{ray:?}"
         );
+    }
+}
+
+/// A small valid scene blob of instances under similarities: two meshes,
+/// sixteen instances rotated, uniformly scaled (one mirrored), two stacked
+/// exactly (ties between instances); built once per process.
+fn similar_scene_seed() -> &'static [u8] {
+    use kdray::kernel::Instance;
+    use kdray::tools::instances::{build_scene, placement, sphere, torus};
+    static SEED: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
+    SEED.get_or_init(|| {
+        let meshes = vec![sphere(4, 6), torus(6, 4)];
+        let mut instances: Vec<Instance> = (0..16)
+            .filter_map(|k| {
+                let s = 0.5 + (k % 4) as f32 * 0.25;
+                let mirror = if k % 5 == 0 { -s } else { s };
+                let m = placement(
+                    [1.0, k as f32, 0.5],
+                    k as f32,
+                    [mirror, s, s],
+                    [(k % 4) as f32 * 2.0 - 3.0, (k / 4) as f32 * 2.0 - 3.0, 0.0],
+                );
+                Instance::new(k % 2, m, k, 1 << (k % 3))
+            })
+            .collect();
+        instances.push(instances[3]);
+        build_scene(
+            &meshes,
+            instances,
+            BuilderKind::default(),
+            &BuildParams::default(),
+        )
+        .and_then(|p| {
+            p.write()
+                .map_err(kdray::tools::instances::SceneBuildError::Write)
+        })
+        .map(|b| b.as_bytes().to_vec())
+        .unwrap_or_default()
+    })
+}
+
+/// A query point: grid values, special values or raw bits per coordinate.
+fn query(r: &mut Bytes<'_>) -> [f32; 3] {
+    [r.component(), r.component(), r.component()]
+}
+
+/// A maximum distance: mostly none (infinite), else any component value
+/// (negative, NaN, zero, subnormal, huge).
+fn max_distance(r: &mut Bytes<'_>) -> f32 {
+    if r.u8() < 128 {
+        f32::INFINITY
+    } else {
+        r.component()
+    }
+}
+
+/// Distance queries never panic, and on valid trees and scenes they are
+/// brute force's bit for bit. The mode byte picks the case (module docs):
+/// 0 a small scene built by every builder; 1 a built tree's blob with
+/// bytes overwritten (resealed when the next byte is odd); 2 arbitrary
+/// bytes as a blob; 3 the instance scenes (unedited, held to brute force;
+/// with bit 2 set, edited, only required to return).
+pub fn distance(data: &[u8]) {
+    use kdray::kernel::Scene;
+    let mut r = Bytes::new(data);
+    let mode = r.u8();
+    match mode % 4 {
+        0 => {
+            let tris = r.scene();
+            let blobs: Vec<Blob> = BuilderKind::ALL
+                .iter()
+                .filter_map(|&k| blob_of(&tris, k))
+                .collect();
+            for _ in 0..16 {
+                if r.rest().is_empty() {
+                    break;
+                }
+                let (q, max, dir) = (query(&mut r), max_distance(&mut r), query(&mut r));
+                let want = closest_point_brute(&tris, q, max).map(|c| c.bits());
+                let crossings = crossings_brute(&tris, q, dir);
+                let winding = winding_crossings_brute(&tris, q, dir);
+                for blob in &blobs {
+                    let tree = blob.tree().expect("the builder's blob validates");
+                    let got = tree.closest_point_within(q, max).map(|c| c.bits());
+                    assert_eq!(got, want, "closest point {q:?} within {max}: {tris:?}");
+                    let start = r.u32() % (tris.len() as u32 + 2);
+                    let from = tree.closest_point_from(q, max, start).map(|c| c.bits());
+                    assert_eq!(from, want, "from {start}: {q:?} within {max}");
+                    assert_eq!(tree.crossings(q, dir), crossings, "{q:?} along {dir:?}");
+                    assert_eq!(
+                        tree.winding_crossings(q, dir),
+                        winding,
+                        "{q:?} along {dir:?}"
+                    );
+                    let _ = (tree.contains(q), tree.contains_voting(q, 3));
+                }
+            }
+        }
+        1 | 2 => {
+            let mut bytes = if mode % 4 == 1 {
+                let tris = r.scene();
+                blob_of(&tris, BuilderKind::default())
+                    .map_or_else(Vec::new, |b| b.as_bytes().to_vec())
+            } else {
+                r.rest().to_vec()
+            };
+            if mode % 4 == 1 && !bytes.is_empty() {
+                let edits = r.u8() % 8;
+                let reseal = r.u8() & 1 == 1;
+                overwrite(&mut r, &mut bytes, edits, reseal);
+            }
+            let blob = Blob::from_bytes(&bytes);
+            let Ok(tree) = TriangleTree::from_bytes(blob.as_bytes()) else {
+                return;
+            };
+            let mut qs = Bytes::new(&bytes[bytes.len().min(64)..]);
+            for _ in 0..8 {
+                let (q, max, dir) = (query(&mut qs), max_distance(&mut qs), query(&mut qs));
+                let _ = (
+                    tree.closest_point_within(q, max),
+                    tree.closest_point_from(q, max, qs.u32()),
+                    tree.crossings(q, dir),
+                    tree.winding_crossings(q, dir),
+                    tree.contains_voting(q, 3),
+                );
+            }
+        }
+        _ => {
+            let seed = if mode & 8 == 0 {
+                similar_scene_seed()
+            } else {
+                // Uneven scales: refused alike.
+                scene_seed()
+            };
+            let mut bytes = seed.to_vec();
+            let edited = mode & 4 != 0 && !bytes.is_empty();
+            if edited {
+                let edits = r.u8() % 8 + 1;
+                let reseal = r.u8() & 1 == 1;
+                overwrite(&mut r, &mut bytes, edits, reseal);
+            }
+            let blob = Blob::from_bytes(&bytes);
+            let Ok(scene) = Scene::from_bytes(blob.as_bytes()) else {
+                return;
+            };
+            for _ in 0..8 {
+                let (q, max, mask) = (query(&mut r), max_distance(&mut r), r.u32());
+                let got = scene.closest_point_within(q, mask, max);
+                if edited {
+                    continue;
+                }
+                let limit = f64::from(max) * f64::from(max);
+                let want = scene
+                    .closest_point_brute(q, mask)
+                    .map(|c| c.filter(|c| max >= 0.0 && c.distance2 <= limit));
+                assert_eq!(
+                    got.map(|c| c.map(|c| c.bits())),
+                    want.map(|c| c.map(|c| c.bits())),
+                    "{q:?} mask {mask:#x} within {max}"
+                );
+                assert_eq!(
+                    got.is_err(),
+                    scene.check_similar(mask).is_err() && q.iter().all(|c| c.is_finite())
+                );
+            }
+        }
     }
 }
 

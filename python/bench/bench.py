@@ -307,6 +307,78 @@ def distance_rows(rows: list[tuple[str, float]], n: int, reps: int) -> None:
         rows.append((f"{short} one-point compute_distance: Open3D us/call", s_o / calls * 1e6))
 
 
+def overhead_rows(rows: list[tuple[str, float]], reps: int) -> None:
+    """Per-call microseconds of a batch of one (ray, query point, closest point) beside the peers."""
+    import open3d as o3d
+    from scipy.spatial import KDTree as ScipyKDTree
+    from scipy.spatial import cKDTree
+
+    name = "stanford-bunny.obj"
+    if (MESHES / name).is_file():
+        v, f = load(name)
+    else:
+        print(f"# {name}: not found, an icosahedron instead")
+        v = np.array(
+            [[0, 1, 1.618], [0, -1, 1.618], [0, 1, -1.618], [0, -1, -1.618], [1, 1.618, 0], [-1, 1.618, 0],
+             [1, -1.618, 0], [-1, -1.618, 0], [1.618, 0, 1], [-1.618, 0, 1], [1.618, 0, -1], [-1.618, 0, -1]],
+            np.float32,
+        )
+        f = np.array([[0, 1, 8], [1, 0, 9], [2, 3, 11], [3, 2, 10]], np.uint32)
+    tree = kdray.TriangleTree(v, f)
+    scene = o3d.t.geometry.RaycastingScene(nthreads=1)
+    scene.add_triangles(o3d.core.Tensor(v), o3d.core.Tensor(f))
+    ray = scattered(v, 1, 3)
+    t_ray = o3d.core.Tensor(ray)
+    q = (v.min(0) + (v.max(0) - v.min(0)) * 0.3)[None, :].astype(np.float32)
+    t_q = o3d.core.Tensor(q)
+    pts = np.random.default_rng(4).random((100_000, 3))
+    kd, ck, sk = kdray.KDTree(pts), cKDTree(pts), ScipyKDTree(pts)
+    x = pts[:1] * 0.999
+    calls = 5000
+
+    def per_call(fn: Callable[[], Any]) -> Callable[[], None]:
+        return lambda: [fn() for _ in range(calls)]  # type: ignore[func-returns-value]
+
+    groups: list[tuple[str, list[tuple[str, Callable[[], Any]]]]] = [
+        (
+            "one-ray cast_rays",
+            [
+                ("kdray, nthreads=1", lambda: tree.cast_rays(ray, 1)),
+                ("kdray, all cores", lambda: tree.cast_rays(ray)),
+                ("Open3D, nthreads=1", lambda: scene.cast_rays(t_ray, nthreads=1)),
+                ("Open3D, all cores", lambda: scene.cast_rays(t_ray)),
+            ],
+        ),
+        (
+            "one-point query (k=1)",
+            [
+                ("kdray KDTree", lambda: kd.query(x)),
+                ("scipy cKDTree", lambda: ck.query(x)),
+                ("scipy KDTree", lambda: sk.query(x)),
+            ],
+        ),
+        (
+            "one-point compute_closest_points",
+            [
+                ("kdray, nthreads=1", lambda: tree.compute_closest_points(q, 1)),
+                ("kdray, all cores", lambda: tree.compute_closest_points(q)),
+                ("Open3D, nthreads=1", lambda: scene.compute_closest_points(t_q, nthreads=1)),
+            ],
+        ),
+        (
+            "one-point compute_distance",
+            [
+                ("kdray, nthreads=1", lambda: tree.compute_distance(q, 1)),
+                ("Open3D, nthreads=1", lambda: scene.compute_distance(t_q, nthreads=1)),
+            ],
+        ),
+    ]
+    for group, calls_of in groups:
+        secs = best(reps, *(per_call(fn) for _, fn in calls_of))
+        for (who, _), s in zip(calls_of, secs):
+            rows.append((f"{group}: {who}, us/call", s / calls * 1e6))
+
+
 def dask_rows(rows: list[tuple[str, float]], n: int, reps: int) -> None:
     """Throughput of ``kdray.dask.cast_rays`` on two local worker processes beside one process.
 
@@ -389,7 +461,7 @@ def main() -> None:
     ap.add_argument(
         "--only",
         nargs="+",
-        choices=("rays", "points", "distance", "dask"),
+        choices=("rays", "points", "distance", "dask", "overhead"),
         help="run only these groups of rows (default: all)",
     )
     ap.add_argument("--distance-points", type=int, help="query points per distance row (default 1M)")
@@ -398,7 +470,7 @@ def main() -> None:
     n_rays, n_pts, n_q = (100_000, 100_000, 10_000) if a.quick else (1_000_000, 1_000_000, 100_000)
     reps = 1 if a.quick else a.reps
     rows: list[tuple[str, float]] = []
-    only = set(a.only or ("rays", "points", "distance", "dask"))
+    only = set(a.only or ("rays", "points", "distance", "dask", "overhead"))
     if "rays" in only:
         rays_rows(rows, n_rays, reps)
     if "points" in only:
@@ -407,6 +479,8 @@ def main() -> None:
         distance_rows(rows, a.distance_points or n_pts, reps)
     if "dask" in only:
         dask_rows(rows, a.dask_rays or 4 * n_rays, reps)
+    if "overhead" in only:
+        overhead_rows(rows, reps)
     width = max(len(r[0]) for r in rows)
     print(f"{'row':<{width}}  value")
     for name, value in rows:

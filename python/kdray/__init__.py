@@ -147,10 +147,17 @@ def _rays(
             raise ValueError(f"origins {o.shape} and directions {d.shape} differ in shape")
         lead = o.shape[:-1]
     out = np.empty(lead + (8,), dtype=_F32)
-    with np.errstate(over="ignore", invalid="ignore"):  # beyond float32: inf, a miss
+    if o.dtype == _F32 and d.dtype == _F32:
         out[..., 0:3] = o
         out[..., 4:7] = d
+    else:
+        with np.errstate(over="ignore", invalid="ignore"):  # beyond float32: inf, a miss
+            out[..., 0:3] = o
+            out[..., 4:7] = d
     for col, name, v in ((3, "tnear", tnear), (7, "tfar", tfar)):
+        if type(v) is float:  # the defaults, and most calls: no array to make
+            out[..., col] = v
+            continue
         a = _array(v, name)
         try:
             out[..., col] = a
@@ -166,6 +173,8 @@ def _points(query_points: Any) -> tuple[np.ndarray, tuple[int, ...]]:
     q = _array(query_points, "query_points")
     if q.ndim < 1 or q.shape[-1] != 3:
         raise ValueError(f"query_points: expected shape (..., 3), got {q.shape}")
+    if q.dtype == _F32:
+        return np.ascontiguousarray(q.reshape(-1, 3)), q.shape[:-1]
     with np.errstate(over="ignore"):  # beyond float32: inf, a NaN distance
         return np.ascontiguousarray(q.reshape(-1, 3), dtype=_F32), q.shape[:-1]
 
@@ -665,6 +674,8 @@ class KDTree(_Blob):
                 f"x: expected shape (..., {self.m}) for the tree's {self.m}-D points, got {q.shape}"
             )
         lead = q.shape[:-1]
+        if q.dtype == self.dtype:
+            return np.ascontiguousarray(q.reshape(-1, self.m)), lead
         with np.errstate(over="ignore", invalid="ignore"):  # beyond float32: inf, no neighbour
             return np.ascontiguousarray(q.reshape(-1, self.m), dtype=self.dtype), lead
 

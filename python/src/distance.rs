@@ -57,7 +57,7 @@ pub(crate) fn closest_points<'py>(
 ) -> PyResult<ClosestArrays<'py>> {
     let (records, normals) = py.detach(|| {
         let mut out = vec![DistanceRecord::new(None, true); queries.len()];
-        pools::install(nthreads, || {
+        pools::install_sized(queries.len(), nthreads, || {
             distance::distance_records(tree, queries, f32::INFINITY, None, &mut out);
         })?;
         let tris = tree.triangles();
@@ -88,7 +88,7 @@ pub(crate) fn answers<'py, T: Copy + Send + numpy::Element>(
     let queries = point_slice(points)?;
     let out = py.detach(|| {
         let mut out = vec![zero; queries.len()];
-        pools::install(nthreads, || fill(tree, queries, &mut out))?;
+        pools::install_sized(queries.len(), nthreads, || fill(tree, queries, &mut out))?;
         Ok::<_, PyErr>(out)
     })?;
     Ok(PyArray1::from_vec(py, out))

@@ -5,6 +5,7 @@
 
 use crate::held::{blob_error, Bytes};
 use crate::pools;
+use crate::rays::map_all;
 use kdray_kernel::{Neighbour, PointShape, PointTreeN, Scalar};
 use kdray_tools::blob::write_point_tree;
 use kdray_tools::points::{build_points, PointParams};
@@ -158,17 +159,15 @@ fn knn<'py, const D: usize, S: Scalar + Element + FromF64>(
                     .for_each(|(o, qs)| answer(o, qs));
             })?;
         }
-        let d2: Vec<S> = out.par_iter().map(|nb| nb.d2).collect();
-        let index: Vec<i64> = out
-            .par_iter()
-            .map(|nb| {
-                if nb.index == u32::MAX {
-                    n
-                } else {
-                    i64::from(nb.index)
-                }
-            })
-            .collect();
+        // Split on the global pool (small batches on this thread).
+        let d2: Vec<S> = map_all(&out, 0, |nb| nb.d2)?;
+        let index: Vec<i64> = map_all(&out, 0, |nb| {
+            if nb.index == u32::MAX {
+                n
+            } else {
+                i64::from(nb.index)
+            }
+        })?;
         Ok::<_, PyErr>((d2, index))
     })?;
     Ok((

@@ -2,6 +2,7 @@
 //! (all cores); another count gets a pool of that size, made once and
 //! kept, so a call costs no thread start.
 
+use kdray_tools::distance::SERIAL_QUERIES;
 use pyo3::exceptions::PyValueError;
 use pyo3::PyResult;
 use rayon::ThreadPool;
@@ -14,6 +15,21 @@ static POOLS: Mutex<Option<HashMap<usize, Arc<ThreadPool>>>> = Mutex::new(None);
 /// The most threads a pool may have: more than any machine's cores and
 /// few enough that a typo does not start a million threads.
 const MAX_THREADS: usize = 1024;
+
+/// Runs `f`, the work of `items` queries, on the calling thread when they
+/// are at most [`SERIAL_QUERIES`] (the tools' batch calls answer so few
+/// there too, and the hand-off to a pool would cost more than they do),
+/// else on `threads` threads as [`install`].
+pub(crate) fn install_sized<R: Send>(
+    items: usize,
+    threads: usize,
+    f: impl FnOnce() -> R + Send,
+) -> PyResult<R> {
+    if items <= SERIAL_QUERIES {
+        return Ok(f());
+    }
+    install(threads, f)
+}
 
 /// Runs `f` on `threads` threads (0: the global pool, all cores).
 pub(crate) fn install<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> PyResult<R> {

@@ -10,8 +10,8 @@ use crate::rays::{hit_lists, map_all, ray_slice, unit_normal};
 use kdray_kernel::{Instance, Scene as KernelScene, SceneClosestPoint, SceneHit, Triangle, MISS};
 use kdray_tools::distance::{scene_distance_records, SceneDistanceRecord};
 use kdray_tools::instances::transform_point;
-use pyo3::exceptions::PyValueError;
 use numpy::{PyArray1, PyReadonlyArray2};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
 
@@ -73,7 +73,7 @@ fn records(
 ) -> PyResult<Vec<SceneDistanceRecord>> {
     py.detach(|| {
         let mut out = vec![SceneDistanceRecord::new(None, true); queries.len()];
-        pools::install(nthreads, || {
+        pools::install_sized(queries.len(), nthreads, || {
             scene_distance_records(scene, queries, ALL, f32::INFINITY, &mut out)
         })?
         .map_err(|e| PyValueError::new_err(format!("scene distance: {e}")))?;
@@ -305,17 +305,35 @@ impl Scene {
         Ok((
             table(
                 py,
-                found.iter().map(|c| c.map_or([f32::NAN; 3], |c| c.point)).collect(),
-            )?,
-            PyArray1::from_vec(py, found.iter().map(|c| c.map_or(MISS, |c| c.instance)).collect()),
-            PyArray1::from_vec(py, found.iter().map(|c| c.map_or(MISS, |c| c.prim)).collect()),
-            table(
-                py,
-                found.iter().map(|c| c.map_or([f32::NAN; 2], |c| [c.u, c.v])).collect(),
+                found
+                    .iter()
+                    .map(|c| c.map_or([f32::NAN; 3], |c| c.point))
+                    .collect(),
             )?,
             PyArray1::from_vec(
                 py,
-                found.iter().map(|c| c.map_or(f64::NAN, |c| c.distance2)).collect(),
+                found
+                    .iter()
+                    .map(|c| c.map_or(MISS, |c| c.instance))
+                    .collect(),
+            ),
+            PyArray1::from_vec(
+                py,
+                found.iter().map(|c| c.map_or(MISS, |c| c.prim)).collect(),
+            ),
+            table(
+                py,
+                found
+                    .iter()
+                    .map(|c| c.map_or([f32::NAN; 2], |c| [c.u, c.v]))
+                    .collect(),
+            )?,
+            PyArray1::from_vec(
+                py,
+                found
+                    .iter()
+                    .map(|c| c.map_or(f64::NAN, |c| c.distance2))
+                    .collect(),
             ),
         ))
     }

@@ -186,8 +186,14 @@ fn record_from(
 /// Queries per rayon task: enough work to amortise the task.
 const CHUNK: usize = 256;
 
+/// Batches of at most this many queries are answered on the calling
+/// thread, in their own order: handing them to the pool costs more (about
+/// 8 us on a two-core machine) than the few queries do.
+pub const SERIAL_QUERIES: usize = 32;
+
 /// `out[i] = each(start, queries[i])` for every pair, on the current rayon
-/// pool, the queries taken in the Morton order of their positions over
+/// pool (a batch of at most [`SERIAL_QUERIES`] on the calling thread), the
+/// queries taken in the Morton order of their positions over
 /// `bounds` ([`point_order`]; a tree's or a scene's box): a walk finds the cells and triangles
 /// its predecessor read still in cache, and `start` (`u32::MAX` at the
 /// start of each task) carries the previous answer's triangle, a tight
@@ -200,6 +206,13 @@ fn in_space_order<T: Send>(
     each: impl Fn(&mut u32, [f32; 3]) -> T + Sync,
 ) {
     let n = queries.len().min(out.len());
+    if n <= SERIAL_QUERIES {
+        let mut start = u32::MAX;
+        for (o, q) in out.iter_mut().zip(queries) {
+            *o = each(&mut start, *q);
+        }
+        return;
+    }
     let Some(order) = point_order(&queries[..n], bounds) else {
         // Past `u32::MAX` queries: in their own order.
         out.par_chunks_mut(CHUNK)

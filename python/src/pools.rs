@@ -25,10 +25,21 @@ pub(crate) fn install_sized<R: Send>(
     threads: usize,
     f: impl FnOnce() -> R + Send,
 ) -> PyResult<R> {
+    check(threads)?;
     if items <= SERIAL_QUERIES {
         return Ok(f());
     }
     install(threads, f)
+}
+
+/// Refuses a thread count above [`MAX_THREADS`], whatever the batch.
+fn check(threads: usize) -> PyResult<()> {
+    if threads > MAX_THREADS {
+        return Err(PyValueError::new_err(format!(
+            "nthreads / workers: {threads} is more than {MAX_THREADS}"
+        )));
+    }
+    Ok(())
 }
 
 /// Runs `f` on `threads` threads (0: the global pool, all cores).
@@ -36,11 +47,7 @@ pub(crate) fn install<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> 
     if threads == 0 {
         return Ok(f());
     }
-    if threads > MAX_THREADS {
-        return Err(PyValueError::new_err(format!(
-            "nthreads / workers: {threads} is more than {MAX_THREADS}"
-        )));
-    }
+    check(threads)?;
     let pool = {
         let mut pools = POOLS.lock().unwrap_or_else(|e| e.into_inner());
         let pools = pools.get_or_insert_with(HashMap::new);

@@ -228,14 +228,18 @@ impl TriangleTree<'_> {
         }
     }
 
-    /// Offers triangle `prim` to `best`, unless it was offered lately: a
-    /// triangle listed in several leaves answers the same each time, and
-    /// against a best that only gets nearer it cannot win the second time.
+    /// Offers triangle `prim` to `best` when its box lies within the cut,
+    /// unless it was offered lately: a triangle listed in several leaves
+    /// answers the same each time, and against a best that only gets
+    /// nearer it cannot win the second time. The box test comes first: it
+    /// is cheaper than the look-up and turns most triangles away, and one
+    /// turned away stays so (the cut only shrinks), so [`Seen`] keeps only
+    /// triangles that passed it.
     #[inline(always)]
     fn offer(&self, best: &mut NearestTriangle, seen: &mut Seen, prim: u32) {
-        if seen.insert(prim) {
-            if let Some(tri) = self.triangles.get(prim as usize) {
-                best.offer_boxed(tri, prim);
+        if let Some(tri) = self.triangles.get(prim as usize) {
+            if best.may_take(tri, prim) && seen.insert(prim) {
+                best.offer(tri, prim);
             }
         }
     }

@@ -143,6 +143,12 @@ fn record_from(
 /// Queries per rayon task: enough work to amortise the task.
 const CHUNK: usize = 256;
 
+/// Queries answered into one buffer before it is copied out: the buffer
+/// is reused, so its pages are touched once. Tried one buffer of all the
+/// answers: 4% slower on 1M near-surface points (its fresh pages are
+/// zeroed inside the call).
+const ROUND: usize = 1 << 14;
+
 /// `out[i] = each(start, queries[i])` for every pair, on the current rayon
 /// pool, the queries taken in the Morton order of their positions over
 /// the tree's box ([`point_order`]): a walk finds the cells and triangles
@@ -169,18 +175,16 @@ fn in_space_order<T: Send>(
             });
         return;
     };
-    let answers: Vec<Vec<T>> = order
-        .par_chunks(CHUNK)
-        .map(|items| {
-            let mut start = u32::MAX;
-            items
-                .iter()
-                .map(|&i| each(&mut start, queries[item_index(i)]))
-                .collect()
-        })
-        .collect();
-    for (answer, &i) in answers.into_iter().flatten().zip(&order) {
-        out[item_index(i)] = answer;
+    let mut answers: Vec<T> = Vec::with_capacity(ROUND.min(n));
+    for round in order.chunks(ROUND) {
+        round
+            .par_iter()
+            .with_min_len(CHUNK)
+            .map_init(|| u32::MAX, |start, &i| each(start, queries[item_index(i)]))
+            .collect_into_vec(&mut answers);
+        for (answer, &i) in answers.drain(..).zip(round) {
+            out[item_index(i)] = answer;
+        }
     }
 }
 

@@ -22,10 +22,12 @@
 //! angles, summed exactly in `f64` only where they could decide: a set
 //! of cap triangles of area `A` within a ball of radius `R`, seen from
 //! distance `D > R` to its centre, subtends at most `A / (4π (D - R)^2)`.
-//! Each cap is bounded by its ball, then its triangles in groups of
-//! [`GROUP`] consecutive ones along the boundary loops (a small ball
-//! each); the groups are summed exactly in tiers, the nearest first, and
-//! as soon as the bounds of what is left cannot move `|w|` across `1/2`
+//! The cap triangles are grouped [`GROUP`] consecutive ones along the
+//! boundary loops (a small ball each), under a tree of balls (median
+//! splits); the tree is walked in tiers, the nearest groups summed
+//! exactly first and every ball whose bound is below the tier's bounded,
+//! and as soon as the bounds of what is left cannot move `|w|` across
+//! `1/2`
 //! the rest is skipped. For a closed mesh there are no caps and the rule
 //! is the ray's signed crossings.
 //!
@@ -38,21 +40,35 @@ use std::collections::HashMap;
 /// mesh; empty for a closed, consistently oriented mesh.
 #[derive(Clone, Debug, Default)]
 pub struct WindingCaps {
-    caps: Vec<Cap>,
+    /// Cap after cap, `(b, a, apex)` for each boundary edge `a -> b`: the
+    /// boundary with the mesh's orientation reversed, so the caps cancel
+    /// it. Each cap's in the order of its loops, so neighbouring
+    /// triangles fill a small [`Ball`].
+    triangles: Vec<Triangle>,
+    /// The ball tree over the groups of [`GROUP`] consecutive triangles of
+    /// a cap, root first; empty without caps.
+    nodes: Vec<BallNode>,
 }
 
-/// One fan over a connected set of boundary loops.
-#[derive(Clone, Debug)]
-struct Cap {
-    /// `(b, a, apex)` for each boundary edge `a -> b`: the boundary with
-    /// the mesh's orientation reversed, so the caps cancel it. In the
-    /// order of the loops, so neighbouring triangles fill a [`Ball`].
-    triangles: Vec<Triangle>,
-    /// Every cap triangle lies in this ball.
+/// A node of the ball tree: its ball holds every triangle below it.
+#[derive(Clone, Copy, Debug)]
+struct BallNode {
     ball: Ball,
-    /// [`GROUP`] triangles at a time, in order: each group's ball.
-    groups: Vec<Ball>,
+    held: Held,
 }
+
+/// What a [`BallNode`] holds.
+#[derive(Clone, Copy, Debug)]
+enum Held {
+    /// The cap triangles `start..end`.
+    Triangles(usize, usize),
+    /// Two child nodes.
+    Children(usize, usize),
+}
+
+/// The ball tree is built by median splits, so its depth stays below
+/// `log2` of the number of groups plus one: this many suffice.
+const TREE_DEPTH: usize = 64;
 
 /// A ball holding some triangles and their area: from `q` at distance
 /// `D` from its centre, beyond its radius `R`, they subtend at most
@@ -64,7 +80,7 @@ struct Ball {
     area: f64,
 }
 
-/// Cap triangles per [`Cap::groups`] ball.
+/// Cap triangles per leaf of the ball tree.
 const GROUP: usize = 8;
 
 impl Ball {
@@ -97,11 +113,37 @@ impl Ball {
     /// The ball about the mean of the vertices of `triangles`.
     fn of(triangles: &[Triangle]) -> Ball {
         let n = (3 * triangles.len()).max(1) as f64;
-        let sum = triangles.iter().flat_map(|t| t.v).fold([0.0f64; 3], |m, p| {
-            let p = wide(p);
-            [m[0] + p[0], m[1] + p[1], m[2] + p[2]]
-        });
+        let sum = triangles
+            .iter()
+            .flat_map(|t| t.v)
+            .fold([0.0f64; 3], |m, p| {
+                let p = wide(p);
+                [m[0] + p[0], m[1] + p[1], m[2] + p[2]]
+            });
         Ball::around(sum.map(|c| c / n), triangles)
+    }
+
+    /// The ball holding both `a` and `b`, with their areas together.
+    fn merge(a: &Ball, b: &Ball) -> Ball {
+        let centre = core::array::from_fn(|i| (a.centre[i] + b.centre[i]) / 2.0);
+        let reach = |x: &Ball| {
+            let d = sub(x.centre, centre);
+            dot(d, d).sqrt() + x.radius
+        };
+        Ball {
+            centre,
+            radius: reach(a).max(reach(b)) * (1.0 + 1e-9),
+            area: a.area + b.area,
+        }
+    }
+
+    /// Does the ray from `q` along `d` pass within the ball?
+    fn meets_ray(&self, q: [f64; 3], d: [f64; 3]) -> bool {
+        // The ray's nearest point to the centre.
+        let to = sub(self.centre, q);
+        let t = (dot(to, d) / dot(d, d)).max(0.0);
+        let gap = sub(to, d.map(|c| c * t));
+        dot(gap, gap) <= self.radius * self.radius * (1.0 + 1e-9)
     }
 
     /// The bound on the magnitude of the winding number of what the ball
@@ -115,6 +157,45 @@ impl Ball {
             f64::INFINITY
         }
     }
+}
+
+/// Appends the ball tree over `leaves` (a ball and its triangles each) to
+/// `nodes`, split at the median centre along the widest axis; its root's
+/// index.
+fn build_tree(leaves: &mut [(Ball, usize, usize)], nodes: &mut Vec<BallNode>) -> usize {
+    let at = nodes.len();
+    if let [(ball, start, end)] = *leaves {
+        nodes.push(BallNode {
+            ball,
+            held: Held::Triangles(start, end),
+        });
+        return at;
+    }
+    let extent = |a: usize| {
+        let (lo, hi) = leaves
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), l| {
+                (lo.min(l.0.centre[a]), hi.max(l.0.centre[a]))
+            });
+        hi - lo
+    };
+    let axis = (0..3)
+        .max_by(|&a, &b| extent(a).total_cmp(&extent(b)))
+        .unwrap_or(0);
+    leaves.sort_by(|a, b| a.0.centre[axis].total_cmp(&b.0.centre[axis]));
+    // A placeholder, filled once the children are built.
+    nodes.push(BallNode {
+        ball: leaves[0].0,
+        held: Held::Children(0, 0),
+    });
+    let (left, right) = leaves.split_at_mut(leaves.len() / 2);
+    let l = build_tree(left, nodes);
+    let r = build_tree(right, nodes);
+    nodes[at] = BallNode {
+        ball: Ball::merge(&nodes[l].ball, &nodes[r].ball),
+        held: Held::Children(l, r),
+    };
+    at
 }
 
 /// The boundary edges of one cap in the order of their loops: each edge
@@ -233,40 +314,74 @@ impl WindingCaps {
             });
             groups[g].1.push((a, b));
         }
-        let caps = groups
-            .into_iter()
-            .map(|(_, edges)| {
-                let edges = loop_order(edges);
-                let mut verts: Vec<u32> = edges.iter().flat_map(|&(a, b)| [a, b]).collect();
-                verts.sort_unstable();
-                verts.dedup();
-                let mean = verts.iter().fold([0.0f64; 3], |m, &v| {
-                    let p = wide(points[v as usize]);
-                    [m[0] + p[0], m[1] + p[1], m[2] + p[2]]
-                });
-                let n = verts.len() as f64;
-                let apex32 = mean.map(|c| (c / n) as f32);
-                let triangles: Vec<Triangle> = edges
-                    .iter()
-                    .map(|&(a, b)| Triangle {
-                        v: [points[b as usize], points[a as usize], apex32],
-                    })
-                    .collect();
-                Cap {
-                    ball: Ball::around(wide(apex32), &triangles),
-                    groups: triangles.chunks(GROUP).map(Ball::of).collect(),
-                    triangles,
-                }
-            })
-            .collect();
-        WindingCaps { caps }
+        let mut all: Vec<Triangle> = Vec::new();
+        let mut leaves: Vec<(Ball, usize, usize)> = Vec::new();
+        for (_, edges) in groups {
+            let edges = loop_order(edges);
+            let mut verts: Vec<u32> = edges.iter().flat_map(|&(a, b)| [a, b]).collect();
+            verts.sort_unstable();
+            verts.dedup();
+            let mean = verts.iter().fold([0.0f64; 3], |m, &v| {
+                let p = wide(points[v as usize]);
+                [m[0] + p[0], m[1] + p[1], m[2] + p[2]]
+            });
+            let n = verts.len() as f64;
+            let apex = mean.map(|c| (c / n) as f32);
+            let first = all.len();
+            all.extend(edges.iter().map(|&(a, b)| Triangle {
+                v: [points[b as usize], points[a as usize], apex],
+            }));
+            for start in (first..all.len()).step_by(GROUP) {
+                let end = (start + GROUP).min(all.len());
+                leaves.push((Ball::of(&all[start..end]), start, end));
+            }
+        }
+        let mut nodes = Vec::with_capacity(2 * leaves.len());
+        if !leaves.is_empty() {
+            build_tree(&mut leaves, &mut nodes);
+        }
+        WindingCaps {
+            triangles: all,
+            nodes,
+        }
+    }
+
+    /// Walks the ball tree depth first from the root with `visit(node,
+    /// carried)`, which returns the value to carry into the node's
+    /// children to go into them, `None` to pass them by (the root
+    /// carries `+inf`).
+    fn walk(&self, mut visit: impl FnMut(&BallNode, f64) -> Option<f64>) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let mut stack = [(0usize, f64::INFINITY); TREE_DEPTH];
+        let mut len = 1;
+        while len > 0 {
+            len -= 1;
+            let (at, carried) = stack[len];
+            let node = &self.nodes[at];
+            if let (Some(c), Held::Children(l, r)) = (visit(node, carried), node.held) {
+                // The depth bound (see TREE_DEPTH) keeps both in range.
+                stack[len] = (r, c);
+                stack[len + 1] = (l, c);
+                len += 2;
+            }
+        }
+    }
+
+    /// The cap triangles held by a leaf (none for an interior node).
+    fn held(&self, node: &BallNode) -> &[Triangle] {
+        match node.held {
+            Held::Triangles(start, end) => &self.triangles[start..end],
+            Held::Children(..) => &[],
+        }
     }
 
     /// How many cap triangles close the mesh (the boundary edges): 0 for a
     /// closed, consistently oriented mesh.
     #[must_use]
     pub fn triangle_count(&self) -> usize {
-        self.caps.iter().map(|c| c.triangles.len()).sum()
+        self.triangles.len()
     }
 
     /// The winding number of the capped mesh at `q`: the signed crossings
@@ -282,16 +397,17 @@ impl WindingCaps {
         let d = wide(dir);
         let qw = wide(q);
         let mut w = i64::from(tree.winding_crossings(q, dir));
-        for cap in &self.caps {
-            // The ray's nearest point to the apex; the cap can be crossed
-            // only if that lies within its radius.
-            let to = sub(cap.ball.centre, qw);
-            let t = (dot(to, d) / dot(d, d)).max(0.0);
-            let gap = sub(to, d.map(|c| c * t));
-            if dot(gap, gap) <= cap.ball.radius * cap.ball.radius * (1.0 + 1e-9) {
-                w += i64::from(winding_crossings_brute(&cap.triangles, q, dir));
+        // Only the cap triangles in balls the ray meets can be crossed.
+        self.walk(|node, _| {
+            if !node.ball.meets_ray(qw, d) {
+                return None;
             }
-        }
+            let held = self.held(node);
+            if !held.is_empty() {
+                w += i64::from(winding_crossings_brute(held, q, dir));
+            }
+            Some(0.0)
+        });
         w
     }
 
@@ -304,12 +420,7 @@ impl WindingCaps {
             return f64::NAN;
         }
         let qw = wide(q);
-        let caps: f64 = self
-            .caps
-            .iter()
-            .flat_map(|c| &c.triangles)
-            .map(|t| triangle_winding(t, qw))
-            .sum();
+        let caps: f64 = self.triangles.iter().map(|t| triangle_winding(t, qw)).sum();
         self.capped_crossings(tree, q) as f64 - caps
     }
 
@@ -323,37 +434,38 @@ impl WindingCaps {
             return false;
         }
         let whole = self.capped_crossings(tree, q) as f64;
-        if self.caps.is_empty() {
+        if self.nodes.is_empty() {
             return whole.abs() > 0.5;
         }
-        // The caps' solid angles, nearest first: in each tier the groups
-        // of cap triangles whose bound reaches the tier's are summed
-        // exactly, the others bounded (a whole cap by its own ball while
-        // that bound is below the tier); `w` then lies within `far` of
-        // the partial sum. The last tier sums every triangle.
+        // The caps' solid angles, nearest first: in each tier a node of
+        // the ball tree whose bound is below the tier's is bounded, the
+        // leaves at or above it summed exactly; `w` then lies within `far`
+        // of the partial sum. A node's bound is the smaller of its ball's
+        // and its parent's, so it never grows going down: a leaf is summed
+        // in the first tier its bound reaches, and never bounded again
+        // (every node above it reaches that tier too). The last tier sums
+        // every triangle.
         let qw = wide(q);
         let decided = |w: f64, far: f64| ((w.abs() - 0.5).abs() > far).then_some(w.abs() > 0.5);
         let mut exact = 0.0f64;
         let mut done: Option<f64> = None;
         for tier in TIERS {
             let mut far = 0.0f64;
-            for cap in &self.caps {
-                let cap_bound = cap.ball.bound(qw);
-                if cap_bound < tier {
-                    far += cap_bound;
-                    continue;
+            self.walk(|node, carried| {
+                let b = node.ball.bound(qw).min(carried);
+                if b < tier {
+                    far += b;
+                    return None;
                 }
-                for (group, ball) in cap.triangles.chunks(GROUP).zip(&cap.groups) {
-                    // A group's bound by the smaller ball, the same in
-                    // every tier: summed in the first tier it reaches.
-                    let b = ball.bound(qw).min(cap_bound);
-                    if b < tier {
-                        far += b;
-                    } else if done.is_none_or(|d| b < d) {
-                        exact += group.iter().map(|t| triangle_winding(t, qw)).sum::<f64>();
-                    }
+                if done.is_none_or(|d| b < d) {
+                    exact += self
+                        .held(node)
+                        .iter()
+                        .map(|t| triangle_winding(t, qw))
+                        .sum::<f64>();
                 }
-            }
+                Some(b)
+            });
             if let Some(inside) = decided(whole - exact, far) {
                 return inside;
             }
@@ -364,8 +476,8 @@ impl WindingCaps {
 }
 
 /// The tiers of [`WindingCaps::contains`]: the bounds (over `4π`) above
-/// which a group of cap triangles is summed exactly; the first bounds
-/// whole caps, the last sums everything.
+/// which a leaf of the ball tree is summed exactly; the first bounds
+/// all caps by the root's ball, the last sums everything.
 const TIERS: [f64; 4] = [f64::INFINITY, 1.0 / 16.0, 1.0 / 256.0, 0.0];
 
 /// [`INSIDE_RAYS`]`[0]` with each component's sign turned towards the
@@ -382,4 +494,3 @@ fn shortest_ray(b: &Bounds, q: [f32; 3]) -> [f32; 3] {
         }
     })
 }
-

@@ -184,8 +184,12 @@ impl TriangleTree<'_> {
                 };
                 // The far child, unless it is an empty cell or farther
                 // than the best so far.
-                let mut far_gaps2 = gaps2;
-                far_gaps2[axis] = off * off;
+                // Selected per axis rather than written at `axis`: the
+                // gaps stay in registers, not in a stack slot indexed at
+                // run time.
+                let o2 = off * off;
+                let far_gaps2: [f64; 3] =
+                    core::array::from_fn(|a| if a == axis { o2 } else { gaps2[a] });
                 if cell_distance2(&far_gaps2) <= best.cut()
                     && self
                         .nodes

@@ -22,7 +22,7 @@
 //! angles, summed exactly in `f64` only where they could decide: a set
 //! of cap triangles of area `A` within a ball of radius `R`, seen from
 //! distance `D > R` to its centre, subtends at most `A / (4π (D - R)^2)`.
-//! The cap triangles are grouped [`GROUP`] consecutive ones along the
+//! The cap triangles are grouped eight consecutive ones along the
 //! boundary loops (a small ball each), under a tree of balls (median
 //! splits); the tree is walked in tiers, the nearest groups summed
 //! exactly first and every ball whose bound is below the tier's bounded,

@@ -349,6 +349,46 @@ fn the_winding_rule_is_the_winding_number_of_an_open_box() {
     }
 }
 
+/// An open tube: the side of a cylinder of radius 1 about the z axis from
+/// z = 0 to 2, `n` segments around, normals out; two holes of `n` edges.
+fn open_tube(n: usize) -> Vec<Triangle> {
+    let p = |i: usize, z: f32| {
+        let a = std::f32::consts::TAU * (i % n) as f32 / n as f32;
+        [a.cos(), a.sin(), z]
+    };
+    let mut tris = Vec::new();
+    for i in 0..n {
+        let (a0, a1, b0, b1) = (p(i, 0.0), p(i + 1, 0.0), p(i, 2.0), p(i + 1, 2.0));
+        tris.push(Triangle { v: [a0, a1, b1] });
+        tris.push(Triangle { v: [a0, b1, b0] });
+    }
+    tris
+}
+
+#[test]
+fn the_winding_rule_sums_each_cap_group_once_near_large_holes() {
+    // Holes of 64 edges: eight groups each, so points near a rim reach
+    // the later tiers with some groups summed and others bounded.
+    let tris = open_tube(64);
+    let b = blob(&tris, BuilderKind::default());
+    let tree = b.tree().unwrap();
+    let caps = winding::WindingCaps::new(&tris);
+    assert_eq!(caps.triangle_count(), 128);
+    let mut checked = 0;
+    let mut between = 0;
+    for i in 0..3000u32 {
+        let f = |k: u32, lo: f32, span: f32| lo + span * ((i * k % 997) as f32 / 997.0);
+        let q = [f(31, -1.3, 2.6), f(57, -1.3, 2.6), f(101, -0.6, 3.2)];
+        let w = winding_sum(&tris, q);
+        if (w.abs() - 0.5).abs() > 1e-9 {
+            checked += 1;
+            between += usize::from(w.abs() > 0.05 && w.abs() < 0.95);
+            assert_eq!(caps.contains(&tree, q), w.abs() > 0.5, "{q:?}: w {w}");
+        }
+    }
+    assert!(checked > 2900 && between > 300, "{checked} {between}");
+}
+
 #[test]
 fn a_closed_mesh_needs_no_caps_and_winds_once() {
     let tris = outward_box(0.0, 4.0);
@@ -356,15 +396,21 @@ fn a_closed_mesh_needs_no_caps_and_winds_once() {
     let tree = b.tree().unwrap();
     let caps = winding::WindingCaps::new(&tris);
     assert_eq!(caps.triangle_count(), 0);
+    // Off the surface (on it either answer is right): inside and outside,
+    // near a face and a corner, where the winding rule's ray (towards the
+    // nearer faces of the box) and parity's differ.
     for q in [
         [1.0, 2.0, 3.0],
-        [4.0, 2.0, 2.0],
+        [3.999, 2.0, 2.0],
+        [4.001, 2.0, 2.0],
         [5.0, 1.0, 1.0],
-        [0.0, 0.0, 0.0],
+        [0.001, 0.001, 0.001],
+        [-0.001, 0.0, 0.0],
     ] {
         let w = caps.winding_number(&tree, q);
-        assert!((w - winding_sum(&tris, q)).abs() < 1e-9 || q[0] == 4.0 || q[0] == 0.0);
+        assert!((w - winding_sum(&tris, q)).abs() < 1e-9, "{q:?}: {w}");
         assert_eq!(caps.contains(&tree, q), tree.contains(q), "{q:?}");
+        assert_eq!(caps.contains(&tree, q), w > 0.5, "{q:?}");
     }
     assert_eq!(caps.winding_number(&tree, [1.0, 2.0, 3.0]), 1.0);
     assert!(!caps.contains(&tree, [f32::NAN, 0.0, 0.0]));

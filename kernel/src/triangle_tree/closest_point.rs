@@ -184,8 +184,12 @@ impl TriangleTree<'_> {
                 };
                 // The far child, unless it is an empty cell or farther
                 // than the best so far.
-                let mut far_gaps2 = gaps2;
-                far_gaps2[axis] = off * off;
+                // Selected per axis rather than written at `axis`: the
+                // gaps stay in registers, not in a stack slot indexed at
+                // run time.
+                let o2 = off * off;
+                let far_gaps2: [f64; 3] =
+                    core::array::from_fn(|a| if a == axis { o2 } else { gaps2[a] });
                 if cell_distance2(&far_gaps2) <= best.cut()
                     && self
                         .nodes
@@ -228,14 +232,18 @@ impl TriangleTree<'_> {
         }
     }
 
-    /// Offers triangle `prim` to `best`, unless it was offered lately: a
-    /// triangle listed in several leaves answers the same each time, and
-    /// against a best that only gets nearer it cannot win the second time.
+    /// Offers triangle `prim` to `best` when its box lies within the cut,
+    /// unless it was offered lately: a triangle listed in several leaves
+    /// answers the same each time, and against a best that only gets
+    /// nearer it cannot win the second time. The box test comes first: it
+    /// is cheaper than the look-up and turns most triangles away, and one
+    /// turned away stays so (the cut only shrinks), so [`Seen`] keeps only
+    /// triangles that passed it.
     #[inline(always)]
     fn offer(&self, best: &mut NearestTriangle, seen: &mut Seen, prim: u32) {
-        if seen.insert(prim) {
-            if let Some(tri) = self.triangles.get(prim as usize) {
-                best.offer_boxed(tri, prim);
+        if let Some(tri) = self.triangles.get(prim as usize) {
+            if best.may_take(tri, prim) && seen.insert(prim) {
+                best.offer(tri, prim);
             }
         }
     }

@@ -37,6 +37,11 @@ use crate::triangle::{dominant_axis, Closest, ShearedRay};
 /// The rays walked as one stream block (a block of the batch calls);
 /// 1024 ran as 256 (bunny random rays, 0.89x against 0.87x of single
 /// rays) on four times the stack.
+// Tried: streams over the whole batch (262,144 rays, caller scratch, an AVX-512
+// partition 16 entries at a time): 0.60-0.75x of single rays on random rays (bunny,
+// teapot, sponza), because streams stay wide only over the cached top ~8 of a
+// bunny ray's 11.3 steps; the deep, missing steps still walk as streams of < 8 rays
+// (prototype at 9f1640b).
 pub(crate) const STREAM_RAYS: usize = 256;
 
 /// Streams of fewer rays go on as single rays from their node: the

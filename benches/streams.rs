@@ -117,7 +117,10 @@ fn main() {
     ];
     let mut scratch = vec![0u64; STREAM_SCRATCH_WORDS];
     let mut wide_scratch: Vec<u64> = Vec::new();
-    if let Some(k) = std::env::var("KDRAY_WIDE_SINGLE").ok().and_then(|k| k.parse().ok()) {
+    if let Some(k) = std::env::var("KDRAY_WIDE_SINGLE")
+        .ok()
+        .and_then(|k| k.parse().ok())
+    {
         kdray::kernel::WIDE_SINGLE.store(k, std::sync::atomic::Ordering::Relaxed);
     }
     println!(

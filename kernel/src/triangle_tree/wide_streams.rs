@@ -35,11 +35,22 @@ fn bump(i: usize, n: usize) {
 }
 
 /// Room for this many stream entries a ray.
-const ENTRIES: usize = 16;
+const ENTRIES: usize = 6;
 
-/// The 32-bit words a ray takes: slab 8, cutoff 1, state 8, entries 3
-/// each.
-const RAY_WORDS: usize = 8 + 1 + 8 + 3 * ENTRIES;
+/// The columns of a stream entry: ray id, `lo`, `hi`, origin (3),
+/// `1/dir` (3; the sign bit is the above-first bit, NaN included), twice
+/// the slack. The entries carry their rays' numbers, so a step reads its
+/// stream in order, not its rays scattered by id.
+const COLS: usize = 10;
+const ID: usize = 0;
+const LO: usize = 1;
+const HI: usize = 2;
+const ORG: usize = 3;
+const INV: usize = 6;
+const S2: usize = 9;
+
+/// The 32-bit words a ray takes: cutoff 1, state 8, entries.
+const RAY_WORDS: usize = 1 + 8 + COLS * ENTRIES;
 
 /// The scratch words ([`crate::Batch::scratch`]) whole-batch streams take
 /// a ray.
@@ -48,8 +59,8 @@ pub const WIDE_STREAM_WORDS: usize = RAY_WORDS.div_ceil(2);
 /// Lanes of room past each stream written (whole-vector stores).
 const PAD: usize = 16;
 
-/// The most rays traced as one batch of streams (ray id times 8 stays an
-/// `i32` gather index).
+/// The most rays traced as one batch of streams (ray id stays an `i32`
+/// gather index).
 const MAX_RAYS: usize = 1 << 24;
 
 /// The fewest rays worth whole-batch streams.
@@ -66,35 +77,40 @@ struct Frame {
 
 /// The rays' numbers in scratch memory, by ray id.
 struct Rays<'s> {
-    /// `[ox, oy, oz, s2, ix, iy, iz, bits]` a ray (`f32` bits; `bits`:
-    /// above-first bits x, y, z in bits 0-2, bit 3 set for a ray walked).
-    slab: &'s mut [u32],
     /// Cells starting after this cannot hold a better answer.
     cut: &'s mut [f32],
     /// The search states ([`StreamQuery::save`]).
     state: &'s mut [u32],
 }
 
-/// The stream entries, three parallel arrays.
+/// The stream entries, [`COLS`] parallel arrays of `f32` / `u32` bits.
 struct Entries<'s> {
-    ids: &'s mut [u32],
-    lo: &'s mut [f32],
-    hi: &'s mut [f32],
+    cols: [&'s mut [u32]; COLS],
 }
 
 impl Entries<'_> {
     /// Room for this many entries (each array's length).
     fn room(&self) -> usize {
-        self.ids.len().min(self.lo.len()).min(self.hi.len())
+        self.cols.iter().map(|c| c.len()).min().unwrap_or(0)
     }
 
-    /// Moves `n` entries from `from` down to `to` (nothing when out of range).
-    fn move_down(&mut self, from: usize, to: usize, n: usize) {
-        let end = from.saturating_add(n);
-        if to < from && end <= self.room() {
-            self.ids.copy_within(from..end, to);
-            self.lo.copy_within(from..end, to);
-            self.hi.copy_within(from..end, to);
+    /// Entry `i`, if in range.
+    #[inline(always)]
+    fn get(&self, i: usize) -> Option<[u32; COLS]> {
+        let mut x = [0u32; COLS];
+        for (x, c) in x.iter_mut().zip(&self.cols) {
+            *x = *c.get(i)?;
+        }
+        Some(x)
+    }
+
+    /// Writes entry `i` (nothing when out of range).
+    #[inline(always)]
+    fn set(&mut self, i: usize, x: &[u32; COLS]) {
+        for (c, &x) in self.cols.iter_mut().zip(x) {
+            if let Some(y) = c.get_mut(i) {
+                *y = x;
+            }
         }
     }
 }
@@ -113,61 +129,56 @@ struct Plane {
 /// Carves `scratch` for `n` rays: their numbers and the entries.
 fn carve(scratch: &mut [u64], n: usize) -> Option<(Rays<'_>, Entries<'_>)> {
     let words: &mut [u32] = bytemuck::cast_slice_mut(scratch);
-    let (slab, rest) = words.split_at_mut_checked(n.checked_mul(8)?)?;
-    let (cut, rest) = rest.split_at_mut_checked(n)?;
-    let (state, rest) = rest.split_at_mut_checked(n * 8)?;
-    let room = rest.len() / 3;
-    let (ids, rest) = rest.split_at_mut(room);
-    let (lo, rest) = rest.split_at_mut(room);
-    let hi = rest.get_mut(..room)?;
+    let (cut, rest) = words.split_at_mut_checked(n)?;
+    let (state, mut rest) = rest.split_at_mut_checked(n.checked_mul(8)?)?;
+    let room = rest.len() / COLS;
+    let cols = core::array::from_fn(|_| {
+        let (c, r) = core::mem::take(&mut rest).split_at_mut(room);
+        rest = r;
+        c
+    });
     Some((
         Rays {
-            slab,
             cut: bytemuck::cast_slice_mut(cut),
             state,
         },
-        Entries {
-            ids,
-            lo: bytemuck::cast_slice_mut(lo),
-            hi: bytemuck::cast_slice_mut(hi),
-        },
+        Entries { cols },
     ))
 }
 
-/// Ray `id`'s slab.
+/// Where a partition of the entries `start..start + len` writes its three
+/// child streams: R0, the below child's entries of the rays that enter it
+/// first (front to back), R1, the above child's, R2, the below child's of
+/// the others. R2 over the stream itself (an entry is written at or before
+/// the place it was read from, a 16-lane store within the lanes just
+/// loaded), the others past it, so that nothing moves afterwards.
 #[inline(always)]
-fn slab_of(slab: &[u32], id: usize) -> Option<&[u32; 8]> {
-    slab.get(id.wrapping_mul(8)..id.wrapping_mul(8).wrapping_add(8))?
-        .try_into()
-        .ok()
+fn regions(start: usize, len: usize) -> [usize; 3] {
+    let r1 = start + len + PAD;
+    [r1 + len + PAD, r1, start]
 }
 
-/// Entries `start..start + len` against the plane `p`, one at a time:
-/// the below child's entries of the rays that enter it first (front to
-/// back) written from `top + 2 * (len + PAD)` (R0), the above child's from
-/// `top + len + PAD` (R1), the below child's of the others from `top` (R2).
-/// The counts `[R0, R1, R2]`.
+/// The room a partition of `len` entries from `start` needs.
 #[inline(always)]
-fn split_scalar(
-    p: &Plane,
-    slab: &[u32],
-    e: &mut Entries<'_>,
-    start: usize,
-    len: usize,
-) -> [usize; 3] {
-    let top = start + len;
-    let base = [top + 2 * (len + PAD), top + len + PAD, top];
+fn split_room(start: usize, len: usize) -> usize {
+    start + 3 * (len + PAD)
+}
+
+/// Entries `start..start + len` against the plane `p`, one at a time,
+/// into the child streams at [`regions`]. The counts `[R0, R1, R2]`.
+#[inline(always)]
+fn split_scalar(p: &Plane, e: &mut Entries<'_>, start: usize, len: usize) -> [usize; 3] {
+    let [b0, b1, b2] = regions(start, len);
+    let base = [b0, b1, b2];
     let mut k = [0usize; 3];
-    for i in start..top {
-        let (Some(&id), Some(&lo), Some(&hi)) = (e.ids.get(i), e.lo.get(i), e.hi.get(i)) else {
+    let axis = p.axis.min(2);
+    for i in start..start + len {
+        let Some(x) = e.get(i) else {
             continue;
         };
-        let Some(r) = slab_of(slab, id as usize) else {
-            continue;
-        };
-        let axis = p.axis.min(2);
-        let (o, v) = (f32::from_bits(r[axis]), f32::from_bits(r[axis + 4]));
-        let (s2, na) = (f32::from_bits(r[3]), r[7] >> axis & 1 == 1);
+        let f = x.map(f32::from_bits);
+        let (lo, hi, o, v, s2) = (f[LO], f[HI], f[ORG + axis], f[INV + axis], f[S2]);
+        let na = v.is_sign_negative();
         // Compute parametric distance along the ray to the split plane.
         let t_split = (p.split - o) * v;
         // As `split_step`: "not outside", so a NaN t_split visits both.
@@ -188,12 +199,9 @@ fn split_scalar(
         };
         let rb = if na ^ p.far_first { 2 } else { 0 };
         for (r, l, h, vis) in [(rb, lb, hb, vb & p.keep[0]), (1, la, ha, va & p.keep[1])] {
-            let at = base[r] + k[r];
-            if let (Some(x), Some(y), Some(z)) =
-                (e.ids.get_mut(at), e.lo.get_mut(at), e.hi.get_mut(at))
-            {
-                (*x, *y, *z) = (id, l, h);
-            }
+            let mut y = x;
+            (y[LO], y[HI]) = (l.to_bits(), h.to_bits());
+            e.set(base[r] + k[r], &y);
             k[r] += usize::from(vis);
         }
     }
@@ -207,15 +215,16 @@ fn split_scalar(
 fn drop_scalar(cut: &[f32], e: &mut Entries<'_>, start: usize, len: usize) -> usize {
     let mut kept = 0;
     for i in start..start + len {
-        let (Some(&id), Some(&lo), Some(&hi)) = (e.ids.get(i), e.lo.get(i), e.hi.get(i)) else {
+        let Some(mut x) = e.get(i) else {
             continue;
         };
-        let c = cut.get(id as usize).copied().unwrap_or(f32::NEG_INFINITY);
-        let at = start + kept;
-        if let (Some(x), Some(y), Some(z)) = (e.ids.get_mut(at), e.lo.get_mut(at), e.hi.get_mut(at))
-        {
-            (*x, *y, *z) = (id, lo, Span::min(hi, c));
-        }
+        let c = cut
+            .get(x[ID] as usize)
+            .copied()
+            .unwrap_or(f32::NEG_INFINITY);
+        let lo = f32::from_bits(x[LO]);
+        x[HI] = Span::min(f32::from_bits(x[HI]), c).to_bits();
+        e.set(start + kept, &x);
         kept += usize::from(lo <= c);
     }
     kept
@@ -229,8 +238,8 @@ mod avx512 {
     //! Run only inside the AVX-512 level's function (`Level::X86_V4`),
     //! reached after `cpu` detected AVX-512 F/BW/DQ/VL. Every vector load
     //! and store lies inside its slice (checked on entry); every gather's
-    //! index is clamped to the slab's rays.
-    use super::{Entries, Plane, PAD};
+    //! index is clamped to the slice it reads.
+    use super::{split_room, Entries, Plane, COLS, HI, ID, INV, LO, ORG, PAD, S2};
     use core::arch::x86_64::*;
 
     /// [`super::split_scalar`], sixteen entries at a time. `None` (nothing
@@ -238,58 +247,37 @@ mod avx512 {
     #[inline(always)]
     pub(super) fn split(
         p: &Plane,
-        slab: &[u32],
         e: &mut Entries<'_>,
         start: usize,
         len: usize,
     ) -> Option<[usize; 3]> {
         let top = start + len;
-        let n = slab.len() / 8;
-        if n == 0 || top + 3 * (len + PAD) > e.room() || n > super::MAX_RAYS {
+        if split_room(start, len) > e.room() {
             return None;
         }
-        let base = [top + 2 * (len + PAD), top + len + PAD, top];
+        let base = super::regions(start, len);
         let mut k = [0usize; 3];
-        let axis = p.axis.min(2) as i32;
+        let axis = p.axis.min(2);
         let keep = |b: bool| if b { 0xffff_u16 } else { 0 };
         let (keep_b, keep_a) = (keep(p.keep[0]), keep(p.keep[1]));
-        let (ids, lo, hi) = (e.ids.as_mut_ptr(), e.lo.as_mut_ptr(), e.hi.as_mut_ptr());
-        let sp = slab.as_ptr();
+        let c: [*mut u32; COLS] = core::array::from_fn(|j| e.cols[j].as_mut_ptr());
         // SAFETY: module docs. Loads read lanes `i..i + 16` masked to
         // `i..top`, inside the arrays (`top <= room`); the stores write
         // 16 lanes at `base[r] + k[r]`, where `k[r] <= len`, so below
-        // `top + 3 * (len + PAD) <= room`; gathers read ray
-        // `min(id, n - 1)`'s words `0..8` of the slab's `8 * n`.
+        // `split_room(start, len) <= room`; R2's at `start + k[2] <= i`,
+        // over lanes already loaded.
         unsafe {
             let split = _mm512_set1_ps(p.split);
-            let last = _mm512_set1_epi32((n - 1) as i32);
-            let (off_o, off_v) = (_mm512_set1_epi32(axis), _mm512_set1_epi32(axis + 4));
-            let (off_s, off_b) = (_mm512_set1_epi32(3), _mm512_set1_epi32(7));
-            let bit = _mm512_set1_epi32(1 << axis);
-            let zero = _mm512_setzero_ps();
             let mut i = start;
             while i < top {
                 let rem = top - i;
                 let m: __mmask16 = if rem >= 16 { 0xffff } else { (1u16 << rem) - 1 };
-                let idv = _mm512_maskz_loadu_epi32(m, ids.add(i).cast());
-                let lov = _mm512_maskz_loadu_ps(m, lo.add(i));
-                let hiv = _mm512_maskz_loadu_ps(m, hi.add(i));
-                let row = _mm512_slli_epi32::<3>(_mm512_min_epu32(idv, last));
-                let o =
-                    _mm512_mask_i32gather_ps::<4>(zero, m, _mm512_add_epi32(row, off_o), sp.cast());
-                let v =
-                    _mm512_mask_i32gather_ps::<4>(zero, m, _mm512_add_epi32(row, off_v), sp.cast());
-                let s2 =
-                    _mm512_mask_i32gather_ps::<4>(zero, m, _mm512_add_epi32(row, off_s), sp.cast());
-                let bits = _mm512_mask_i32gather_epi32::<4>(
-                    _mm512_setzero_si512(),
-                    m,
-                    _mm512_add_epi32(row, off_b),
-                    sp.cast(),
-                );
+                let x: [__m512; COLS] =
+                    core::array::from_fn(|j| _mm512_maskz_loadu_ps(m, c[j].add(i).cast()));
+                let (lov, hiv, o, v, s2) = (x[LO], x[HI], x[ORG + axis], x[INV + axis], x[S2]);
                 // Compute parametric distance along each ray to the split plane.
                 let t = _mm512_mul_ps(_mm512_sub_ps(split, o), v);
-                let na = _mm512_test_epi32_mask(bits, bit);
+                let na = _mm512_movepi32_mask(_mm512_castps_si512(v));
                 // "Not outside": a NaN t_split visits both.
                 let vn = _mm512_cmp_ps_mask::<_CMP_NLT_UQ>(t, lov);
                 let vf = _mm512_cmp_ps_mask::<_CMP_NGT_UQ>(t, hiv);
@@ -308,10 +296,18 @@ mod avx512 {
                     (2, vb & later, lb, hb),
                     (1, va, la, ha),
                 ] {
+                    if mask == 0 {
+                        continue;
+                    }
                     let at = base[r] + k[r];
-                    _mm512_storeu_si512(ids.add(at).cast(), _mm512_maskz_compress_epi32(mask, idv));
-                    _mm512_storeu_ps(lo.add(at), _mm512_maskz_compress_ps(mask, l));
-                    _mm512_storeu_ps(hi.add(at), _mm512_maskz_compress_ps(mask, h));
+                    for (j, &col) in x.iter().enumerate() {
+                        let y = match j {
+                            LO => l,
+                            HI => h,
+                            _ => col,
+                        };
+                        _mm512_storeu_ps(c[j].add(at).cast(), _mm512_maskz_compress_ps(mask, y));
+                    }
                     k[r] += mask.count_ones() as usize;
                 }
                 i += 16;
@@ -335,7 +331,7 @@ mod avx512 {
         if n == 0 || top + PAD > e.room() || n > super::MAX_RAYS {
             return None;
         }
-        let (ids, lo, hi) = (e.ids.as_mut_ptr(), e.lo.as_mut_ptr(), e.hi.as_mut_ptr());
+        let c: [*mut u32; COLS] = core::array::from_fn(|j| e.cols[j].as_mut_ptr());
         let mut kept = 0usize;
         // SAFETY: module docs. Loads read lanes `i..top`; the stores write
         // 16 lanes from `start + kept <= i`, below `top + PAD <= room`,
@@ -347,21 +343,22 @@ mod avx512 {
             while i < top {
                 let rem = top - i;
                 let m: __mmask16 = if rem >= 16 { 0xffff } else { (1u16 << rem) - 1 };
-                let idv = _mm512_maskz_loadu_epi32(m, ids.add(i).cast());
-                let lov = _mm512_maskz_loadu_ps(m, lo.add(i));
-                let hiv = _mm512_maskz_loadu_ps(m, hi.add(i));
-                let c = _mm512_mask_i32gather_ps::<4>(
+                let x: [__m512; COLS] =
+                    core::array::from_fn(|j| _mm512_maskz_loadu_ps(m, c[j].add(i).cast()));
+                let ids = _mm512_castps_si512(x[ID]);
+                let cv = _mm512_mask_i32gather_ps::<4>(
                     _mm512_setzero_ps(),
                     m,
-                    _mm512_min_epu32(idv, last),
+                    _mm512_min_epu32(ids, last),
                     cut.as_ptr().cast(),
                 );
-                let keep = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(lov, c) & m;
-                let hi2 = _mm512_min_ps(c, hiv);
+                let keep = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(x[LO], cv) & m;
+                let hi2 = _mm512_min_ps(cv, x[HI]);
                 let at = start + kept;
-                _mm512_storeu_si512(ids.add(at).cast(), _mm512_maskz_compress_epi32(keep, idv));
-                _mm512_storeu_ps(lo.add(at), _mm512_maskz_compress_ps(keep, lov));
-                _mm512_storeu_ps(hi.add(at), _mm512_maskz_compress_ps(keep, hi2));
+                for (j, &col) in x.iter().enumerate() {
+                    let y = if j == HI { hi2 } else { col };
+                    _mm512_storeu_ps(c[j].add(at).cast(), _mm512_maskz_compress_ps(keep, y));
+                }
                 kept += keep.count_ones() as usize;
                 i += 16;
             }
@@ -396,72 +393,79 @@ impl<Q: StreamQuery> Job for WideWalk<'_, '_, '_, Q> {
     }
 }
 
+/// Ray `id`'s search state (word 7, which [`StreamQuery::save`] leaves
+/// 0, marks a ray walked).
+#[inline(always)]
+fn load<Q: StreamQuery>(r: &Rays<'_>, id: usize) -> Option<Q::State> {
+    let w = r
+        .state
+        .get(id.checked_mul(8)?..id.checked_mul(8)?.checked_add(8)?)?;
+    Some(Q::load(w.try_into().ok()?))
+}
+
+/// Saves ray `id`'s search state and its cutoff.
+#[inline(always)]
+fn save<Q: StreamQuery>(r: &mut Rays<'_>, id: usize, s: &Q::State, ray: &Ray, s2: f32) {
+    if let Some(w) = r.state.get_mut(id * 8..id * 8 + 7) {
+        w.copy_from_slice(&Q::save(s)[..7]);
+    }
+    if let Some(c) = r.cut.get_mut(id) {
+        *c = Q::bound(s, ray).cutoff(s2);
+    }
+}
+
 impl TriangleTree<'_> {
-    /// Ray `id`'s search from `(node, lo, hi)` on, as a single ray.
+    /// The entry `x`'s search from `node` on, as a single ray.
     #[inline(always)]
     fn wide_single<Q: StreamQuery>(
         &self,
         rays: &[Ray],
         r: &mut Rays<'_>,
-        id: usize,
-        at: (u32, f32, f32),
+        x: &[u32; COLS],
+        node: u32,
     ) {
-        let Some(ray) = rays.get(id) else {
-            return;
-        };
-        let Some(&g) = slab_of(r.slab, id) else {
+        let id = x[ID] as usize;
+        let (Some(ray), Some(mut s)) = (rays.get(id), load::<Q>(r, id)) else {
             return;
         };
         let Some(sr) = ShearedRay::new(ray) else {
             return;
         };
-        let f = g.map(f32::from_bits);
-        let above_first = [0, 1, 2].map(|a| g[7] >> a & 1);
+        let f = x.map(f32::from_bits);
+        let inv = [f[INV], f[INV + 1], f[INV + 2]];
+        let above_first = inv.map(|i| u32::from(i.is_sign_negative()));
+        let (lo, hi) = (f[LO], f[HI]);
         let cr = CellRay {
-            org: [f[0], f[1], f[2]],
-            inv: [f[4], f[5], f[6]],
+            org: [f[ORG], f[ORG + 1], f[ORG + 2]],
+            inv,
             above_first,
             above_first_nibbles: Node::first_child_mask(above_first),
-            t0: at.1,
-            t1: at.2,
-            slack: f[3] / 2.0,
+            t0: lo,
+            t1: hi,
+            slack: f[S2] / 2.0,
         };
-        let Some(w) = r.state.get_mut(id * 8..id * 8 + 8) else {
-            return;
-        };
-        let Ok(words) = <[u32; 8]>::try_from(&*w) else {
-            return;
-        };
-        let mut s = Q::load(words);
-        Q::single(self, &sr, &cr, ray, &mut s, at);
-        w.copy_from_slice(&Q::save(&s));
-        if let Some(c) = r.cut.get_mut(id) {
-            *c = Q::bound(&s, ray).cutoff(f[3]);
-        }
+        Q::single(self, &sr, &cr, ray, &mut s, (node, lo, hi));
+        save::<Q>(r, id, &s, ray, f[S2]);
     }
 
-    /// Ray `id`'s test of a leaf's primitives.
+    /// The entry `x`'s ray's test of a leaf's primitives.
     #[inline(always)]
-    fn wide_leaf<Q: StreamQuery>(&self, rays: &[Ray], r: &mut Rays<'_>, id: usize, node: Node) {
-        let (Some(ray), Some(g)) = (rays.get(id), slab_of(r.slab, id)) else {
+    fn wide_leaf<Q: StreamQuery>(
+        &self,
+        rays: &[Ray],
+        r: &mut Rays<'_>,
+        x: &[u32; COLS],
+        node: Node,
+    ) {
+        let id = x[ID] as usize;
+        let (Some(ray), Some(mut s)) = (rays.get(id), load::<Q>(r, id)) else {
             return;
         };
-        let s2 = f32::from_bits(g[3]);
         let Some(sr) = ShearedRay::new(ray) else {
             return;
         };
-        let Some(w) = r.state.get_mut(id * 8..id * 8 + 8) else {
-            return;
-        };
-        let Ok(words) = <[u32; 8]>::try_from(&*w) else {
-            return;
-        };
-        let mut s = Q::load(words);
         Q::leaf(self, &sr, ray, &mut s, LeafIter::new(self.leaf_prims(node)));
-        w.copy_from_slice(&Q::save(&s));
-        if let Some(c) = r.cut.get_mut(id) {
-            *c = Q::bound(&s, ray).cutoff(s2);
-        }
+        save::<Q>(r, id, &s, ray, f32::from_bits(x[S2]));
     }
 
     /// The walk of the stream of the `n` first entries from the root.
@@ -513,16 +517,13 @@ impl TriangleTree<'_> {
                 if len == 0 {
                     break;
                 }
-                if len < single_below || (!node.is_leaf() && top + 3 * (len + PAD) > room) {
+                if len < single_below || (!node.is_leaf() && split_room(start, len) > room) {
                     bump(2, len);
                     bump(5, 1);
                     for i in start..top {
-                        let (Some(&id), Some(&lo), Some(&hi)) =
-                            (e.ids.get(i), e.lo.get(i), e.hi.get(i))
-                        else {
-                            continue;
-                        };
-                        self.wide_single::<Q>(rays, r, id as usize, (at, lo, hi));
+                        if let Some(x) = e.get(i) {
+                            self.wide_single::<Q>(rays, r, &x, at);
+                        }
                     }
                     break;
                 }
@@ -531,8 +532,8 @@ impl TriangleTree<'_> {
                     bump(4, 1);
                     if node.upper() != 0 {
                         for i in start..top {
-                            if let Some(&id) = e.ids.get(i) {
-                                self.wide_leaf::<Q>(rays, r, id as usize, node);
+                            if let Some(x) = e.get(i) {
+                                self.wide_leaf::<Q>(rays, r, &x, node);
                             }
                         }
                     }
@@ -553,7 +554,7 @@ impl TriangleTree<'_> {
                 };
                 #[cfg(target_arch = "x86_64")]
                 let split = if v4 {
-                    avx512::split(&p, r.slab, e, start, len)
+                    avx512::split(&p, e, start, len)
                 } else {
                     None
                 };
@@ -561,13 +562,11 @@ impl TriangleTree<'_> {
                 let split = None;
                 let [n0, n1, n2] = match split {
                     Some(k) => k,
-                    None => split_scalar(&p, r.slab, e, start, len),
+                    None => split_scalar(&p, e, start, len),
                 };
-                // Packed down in the order they wait: R2 deepest, R0 on top.
-                e.move_down(top, start, n2);
-                e.move_down(top + len + PAD, start + n2, n1);
-                e.move_down(top + 2 * (len + PAD), start + n2 + n1, n0);
-                for (child, from, k) in [(0, start, n2), (1, start + n2, n1)] {
+                // They wait in this order: R2 deepest, R0 on top.
+                let [r0, r1, r2] = regions(start, len);
+                for (child, from, k) in [(0, r2, n2), (1, r1, n1)] {
                     if k == 0 {
                         continue;
                     }
@@ -583,7 +582,7 @@ impl TriangleTree<'_> {
                     fp += 1;
                 }
                 at = below as u32;
-                start += n2 + n1;
+                start = r0;
                 len = n0;
             }
         }
@@ -605,7 +604,7 @@ impl TriangleTree<'_> {
         }
         for (b, block) in rays.chunks(per).enumerate() {
             let n = block.len();
-            let Some((mut r, e)) = carve(scratch, n) else {
+            let Some((mut r, mut e)) = carve(scratch, n) else {
                 return false;
             };
             let room = e.room().saturating_sub(PAD);
@@ -615,51 +614,55 @@ impl TriangleTree<'_> {
                 if let Some(w) = r.state.get_mut(id * 8..id * 8 + 8) {
                     w.copy_from_slice(&Q::save(&start));
                 }
-                let Some(g) = r.slab.get_mut(id * 8..id * 8 + 8) else {
-                    continue;
-                };
-                g[7] = 0;
                 let Some(cr) = CellRay::new(ray, dominant_axis(&ray.dir), &self.bounds) else {
                     continue;
                 };
                 if ShearedRay::new(ray).is_none() {
                     continue;
                 }
+                if let Some(w) = r.state.get_mut(id * 8 + 7) {
+                    *w = 1;
+                }
                 let s2 = cr.slack + cr.slack;
-                let [x, y, z] = cr.above_first;
-                let [o0, o1, o2] = cr.org.map(f32::to_bits);
-                let [i0, i1, i2] = cr.inv.map(f32::to_bits);
-                g.copy_from_slice(&[
-                    o0,
-                    o1,
-                    o2,
-                    s2.to_bits(),
-                    i0,
-                    i1,
-                    i2,
-                    x | y << 1 | z << 2 | 8,
-                ]);
+                // The sign bit of `1/dir` is the above-first bit, NaN too.
+                let inv: [f32; 3] = core::array::from_fn(|a| {
+                    let neg = cr.above_first[a] == 1;
+                    if neg == cr.inv[a].is_sign_negative() {
+                        cr.inv[a]
+                    } else {
+                        -cr.inv[a]
+                    }
+                });
                 if let Some(c) = r.cut.get_mut(id) {
                     *c = Q::bound(&start, ray).cutoff(s2);
                 }
                 let (lo, hi) = cr.start();
+                let [o0, o1, o2] = cr.org.map(f32::to_bits);
+                let [i0, i1, i2] = inv.map(f32::to_bits);
+                let x = [
+                    id as u32,
+                    lo.to_bits(),
+                    hi.to_bits(),
+                    o0,
+                    o1,
+                    o2,
+                    i0,
+                    i1,
+                    i2,
+                    s2.to_bits(),
+                ];
                 if k < room {
-                    if let (Some(a), Some(b), Some(c)) =
-                        (e.ids.get_mut(k), e.lo.get_mut(k), e.hi.get_mut(k))
-                    {
-                        (*a, *b, *c) = (id as u32, lo, hi);
-                        k += 1;
-                    }
+                    e.set(k, &x);
+                    k += 1;
                 } else {
                     // No room: this ray alone.
-                    self.wide_single::<Q>(block, &mut r, id, (0, lo, hi));
+                    self.wide_single::<Q>(block, &mut r, &x, 0);
                 }
             }
             dispatch(WideWalk::<Q> {
                 tree: self,
                 rays: block,
                 r: Rays {
-                    slab: &mut *r.slab,
                     cut: &mut *r.cut,
                     state: &mut *r.state,
                 },
@@ -668,14 +671,9 @@ impl TriangleTree<'_> {
                 q: core::marker::PhantomData,
             });
             for (id, ray) in block.iter().enumerate() {
-                let walked = slab_of(r.slab, id).is_some_and(|g| g[7] & 8 != 0);
+                let walked = r.state.get(id * 8 + 7) == Some(&1);
                 let sr = ShearedRay::new(ray).filter(|_| walked);
-                let words = r
-                    .state
-                    .get(id * 8..id * 8 + 8)
-                    .and_then(|w| <[u32; 8]>::try_from(w).ok())
-                    .unwrap_or_else(|| Q::save(&Q::start(ray)));
-                let mut s = Q::load(words);
+                let mut s = load::<Q>(&r, id).unwrap_or_else(|| Q::start(ray));
                 answer(b * per + id, &mut s, sr.as_ref());
             }
         }

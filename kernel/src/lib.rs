@@ -156,5 +156,4 @@ pub use triangle_tree::packet::{Packet, Packet16, Packet4, Packet8, PacketWidth}
 pub use triangle_tree::{
     Batch, Counting, PacketLanes, ShallowTree, Streams, TraceBatch, TraversalCounts, Treelet,
     TreeletBufferTooSmall, TreeletTree, TriangleTree, INSIDE_RAYS, STREAM_SCRATCH_WORDS,
-    WIDE_COUNTS, WIDE_SINGLE, WIDE_STREAM_WORDS,
 };

@@ -22,9 +22,6 @@ pub(crate) trait Level {
     /// their own run them only then.
     #[cfg(target_arch = "x86_64")]
     const X86_V3: bool = false;
-    /// Whether the level has x86-64-v4 (AVX-512 F/BW/DQ/VL).
-    #[cfg(target_arch = "x86_64")]
-    const X86_V4: bool = false;
 }
 
 /// The build's own target features: `wide`'s vectors as it compiled them.
@@ -59,7 +56,6 @@ impl Level for Avx512 {
     type X8 = super::x86::Avx8;
     type X16 = super::x86::Avx16;
     const X86_V3: bool = true;
-    const X86_V4: bool = true;
 }
 
 /// Work generic over the level's lane types.

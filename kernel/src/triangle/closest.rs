@@ -175,47 +175,6 @@ impl Closest {
         self.deferred = false;
     }
 
-    /// The search's state as eight words, for a walk that keeps many
-    /// rays' states in caller memory ([`Closest::from_words`] reads it back).
-    #[inline(always)]
-    pub(crate) fn to_words(&self) -> [u32; 8] {
-        let h = self.hit.unwrap_or(TriangleHit {
-            t: 0.0,
-            v: 0.0,
-            w: 0.0,
-            det: 0.0,
-        });
-        let flags = u32::from(self.hit.is_some()) | u32::from(self.deferred) << 1;
-        [
-            self.t.to_bits(),
-            self.prim,
-            h.t.to_bits(),
-            h.v.to_bits(),
-            h.w.to_bits(),
-            h.det.to_bits(),
-            flags,
-            0,
-        ]
-    }
-
-    /// The state [`Closest::to_words`] wrote.
-    #[inline(always)]
-    pub(crate) fn from_words(w: [u32; 8]) -> Closest {
-        let [t, prim, ht, v, hw, det, flags, _] = w;
-        let hit = TriangleHit {
-            t: f32::from_bits(ht),
-            v: f32::from_bits(v),
-            w: f32::from_bits(hw),
-            det: f32::from_bits(det),
-        };
-        Closest {
-            t: f32::from_bits(t),
-            prim,
-            hit: (flags & 1 == 1).then_some(hit),
-            deferred: flags & 2 == 2,
-        }
-    }
-
     /// The answer, over the triangles `tris` the hits were found in and
     /// the ray `sr` they were found for.
     #[inline]

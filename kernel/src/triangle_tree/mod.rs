@@ -18,14 +18,12 @@ mod treelet_tree;
 mod treelets;
 mod turns;
 mod walk;
-mod wide_streams;
 
 pub use batch::{Batch, Streams};
 pub use packet::PacketLanes;
 pub use streams::STREAM_SCRATCH_WORDS;
 pub use treelet_tree::{TraceBatch, TreeletTree};
 pub use treelets::{Treelet, TreeletBufferTooSmall};
-pub use wide_streams::{WIDE_COUNTS, WIDE_SINGLE, WIDE_STREAM_WORDS};
 
 pub use counting::Counting;
 pub use counts::TraversalCounts;

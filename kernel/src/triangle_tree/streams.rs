@@ -131,11 +131,6 @@ pub(super) trait StreamQuery {
     const FAR_FIRST: bool;
     /// Before the walk.
     fn start(ray: &Ray) -> Self::State;
-    /// The state as eight words, for walks that keep their rays' states
-    /// in the caller's scratch memory ([`StreamQuery::load`] reads it).
-    fn save(s: &Self::State) -> [u32; 8];
-    /// The state [`StreamQuery::save`] wrote.
-    fn load(w: [u32; 8]) -> Self::State;
     /// The end of the ray's interval ([`Visit::bound`]); `-inf` once the
     /// answer is known.
     fn bound(state: &Self::State, ray: &Ray) -> f32;
@@ -167,14 +162,6 @@ impl StreamQuery for ClosestStream {
     #[inline(always)]
     fn start(ray: &Ray) -> Closest {
         Closest::new(ray.tmax)
-    }
-    #[inline(always)]
-    fn save(s: &Closest) -> [u32; 8] {
-        s.to_words()
-    }
-    #[inline(always)]
-    fn load(w: [u32; 8]) -> Closest {
-        Closest::from_words(w)
     }
     #[inline(always)]
     fn bound(s: &Closest, _: &Ray) -> f32 {
@@ -217,14 +204,6 @@ impl StreamQuery for AnyStream {
     #[inline(always)]
     fn start(_: &Ray) -> bool {
         false
-    }
-    #[inline(always)]
-    fn save(s: &bool) -> [u32; 8] {
-        [u32::from(*s), 0, 0, 0, 0, 0, 0, 0]
-    }
-    #[inline(always)]
-    fn load(w: [u32; 8]) -> bool {
-        w[0] == 1
     }
     #[inline(always)]
     fn bound(s: &bool, ray: &Ray) -> f32 {
@@ -548,18 +527,6 @@ impl TriangleTree<'_> {
         hits: &mut [Hit],
         scratch: &mut [u64],
     ) {
-        let rays = rays.get(..hits.len()).unwrap_or(rays);
-        let wide = self.wide_streamed::<ClosestStream>(rays, scratch, |i, best, sr| {
-            if let Some(h) = hits.get_mut(i) {
-                *h = match sr {
-                    Some(sr) => best.hit(sr, self.triangles),
-                    None => Hit::MISS,
-                };
-            }
-        });
-        if wide {
-            return;
-        }
         for (rays, hits) in rays.chunks(STREAM_RAYS).zip(hits.chunks_mut(STREAM_RAYS)) {
             self.streamed::<ClosestStream>(rays, scratch, |i, best, sr| {
                 if let Some(h) = hits.get_mut(i) {
@@ -580,14 +547,6 @@ impl TriangleTree<'_> {
         occluded: &mut [bool],
         scratch: &mut [u64],
     ) {
-        let wide = self.wide_streamed::<AnyStream>(rays, scratch, |i, s, sr| {
-            if let Some(o) = occluded.get_mut(i) {
-                *o = sr.is_some() && *s;
-            }
-        });
-        if wide {
-            return;
-        }
         for (rays, occ) in rays
             .chunks(STREAM_RAYS)
             .zip(occluded.chunks_mut(STREAM_RAYS))

@@ -18,12 +18,15 @@ mod treelet_tree;
 mod treelets;
 mod turns;
 mod walk;
+mod walk_choice;
 
 pub use batch::{Batch, Streams};
 pub use packet::PacketLanes;
 pub use streams::STREAM_SCRATCH_WORDS;
 pub use treelet_tree::{TraceBatch, TreeletTree};
 pub use treelets::{Treelet, TreeletBufferTooSmall};
+#[doc(hidden)]
+pub use walk_choice::Trial;
 
 pub use counting::Counting;
 pub use counts::TraversalCounts;

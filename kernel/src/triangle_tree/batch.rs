@@ -8,7 +8,7 @@
 //! bit.
 
 use super::packet::{lane_bools, LaneRays, LaneStack, PacketWidth};
-use super::walk_choice::{ticks, Trial, Trials, Walk, CLOCK};
+use super::walk_choice::{ticks, Step, Trial, Trials, Walk, CLOCK};
 use super::TriangleTree;
 use crate::geometry::{item_index, sort_items, Bounds, Hit, MortonGrid, Ray, MISS};
 use crate::lanes::{dispatch, Job, Lanes, Level};
@@ -199,11 +199,21 @@ impl TriangleTree<'_> {
                     true => &mut plan.scattered,
                     false => &mut plan.coherent,
                 };
-                let (i, walk, timed) = trials.next(plan.trial, CLOCK);
-                let start = ticks().filter(|_| timed);
-                self.block_with::<Q>(walk, rays, out, &mut memo);
-                if let (Some(start), Some(end)) = (start, ticks().filter(|_| timed)) {
-                    trials.record(i, end.wrapping_sub(start), rays.len());
+                match trials.next(plan.trial, CLOCK) {
+                    Step::Take(walk) => self.block_with::<Q>(walk, rays, out, &mut memo),
+                    Step::Trial { order } => {
+                        // Halves of whole 16-lane packets.
+                        let half = rays.len() / 2 & !15;
+                        let r = rays.split_at_checked(half).unwrap_or((rays, &[]));
+                        let o = out.split_at_mut(half.min(out.len()));
+                        let mut ticks_of = |i: usize, rays: &[Ray], out: &mut [Q::Out]| {
+                            let start = ticks();
+                            self.block_with::<Q>(trials.walk(i), rays, out, &mut memo);
+                            ticks().zip(start).map_or(0, |(e, s)| e.wrapping_sub(s))
+                        };
+                        let t = [ticks_of(order[0], r.0, o.0), ticks_of(order[1], r.1, o.1)];
+                        trials.record(order, t, [r.0.len(), r.1.len()]);
+                    }
                 }
                 continue;
             };

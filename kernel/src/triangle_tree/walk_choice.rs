@@ -9,13 +9,16 @@
 //! them) or in packets (any hit). Which is cheaper depends on the tree,
 //! the rays and the machine (rays in turns ran 0.84x of single rays on
 //! one machine's sponza random rays and 1.7x on another's), so it is not
-//! guessed from the tree's size but timed: a kind's first three blocks
-//! take its candidates in turn (the first again once the caches are warm,
-//! so that the first block's cold misses do not count against it), the
-//! cheaper per ray by the processor's time-stamp counter takes the blocks
-//! after, and the other is tried again now and then so that a batch that
-//! changes character is followed. Every walk gives each ray its single
-//! ray's answer bit for bit, so the choice changes only the time.
+//! guessed from the tree's size but timed, by the processor's time-stamp
+//! counter, in trials: a trial block walks its first half with one
+//! candidate and its second half with the other (neighbouring rays, so
+//! alike: blocks of a camera image differ far more from one another, all
+//! background or all mesh, than two candidates do on one block), the
+//! order swapped from one trial to the next. A kind's first blocks are
+//! trials (the first one only warms the caches), the cheaper per ray takes
+//! the blocks after, and a trial now and then follows a batch that
+//! changes character. Every walk gives each ray its single ray's answer
+//! bit for bit, so the choice changes only the time.
 //!
 //! Where no counter is read (off x86-64, and under Miri and fuzzing, which
 //! stay deterministic) the choice is fixed: a kind's first candidate,
@@ -54,33 +57,53 @@ pub enum Trial {
     Second,
 }
 
-/// A kind's first three blocks try its candidates in this order.
-const ROUND: [usize; 3] = [0, 1, 0];
+/// A kind's first blocks are trials (the first one's times not counted:
+/// its misses are the caches' cold start, not the walks').
+const ROUND: u32 = 4;
 
-/// The losing candidate is tried again after this many blocks of the
-/// winner times its cost relative to the winner's: its tries then take
-/// about 1/32 of the kind's time, however much slower it is.
+/// Candidate 1's cost relative to candidate 0's, in 1/256: equal.
+const EVEN: u32 = 256;
+
+/// The trials after the first come after this many blocks of the winner
+/// times the loser's cost relative to the winner's: a trial's losing half
+/// then takes about 1/64 of the kind's time, however much slower it is.
 const RETRY: u64 = 32;
 
-/// At most this many blocks between tries of the loser (64k rays), so a
-/// batch whose rays change character is followed within that.
+/// At most this many blocks between trials (64k rays), so a batch whose
+/// rays change character is followed within that.
 const RETRY_MAX: u64 = 256;
 
-/// One kind of block's candidate walks and what each cost per ray.
+/// What a block does ([`Trials::next`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Step {
+    /// The whole block takes this walk.
+    Take(Walk),
+    /// A trial: the block's first half takes candidate `order[0]`, its
+    /// second half candidate `order[1]`, each timed
+    /// ([`Trials::record`]).
+    Trial {
+        /// Indices into the candidates.
+        order: [usize; 2],
+    },
+}
+
+/// One kind of block's candidate walks and what each costs per ray.
 #[derive(Debug)]
 pub(super) struct Trials {
     /// The candidates, first the one taken without a counter.
     pub(super) walks: [Walk; 2],
     /// How many of `walks` compete: 1 (no trials) or 2.
     count: usize,
-    /// Counter ticks per ray of each candidate's last blocks (0: not yet
-    /// timed).
-    cost: [u64; 2],
-    /// The kind's blocks timed so far, up to the end of [`ROUND`].
-    pub(super) timed: usize,
-    /// The candidate taken between tries.
+    /// The last three trials' cost of candidate 1 relative to candidate
+    /// 0's per ray (1/256ths, [`EVEN`] where equal), within 4x either way:
+    /// their median decides, so one trial the thread was switched out in
+    /// (the counter runs on) cannot.
+    ratios: [u32; 3],
+    /// The trials so far.
+    pub(super) trials: u32,
+    /// The candidate taken between trials.
     best: usize,
-    /// Blocks the best took since the other was last tried.
+    /// Blocks the best took since the last trial.
     since: u64,
 }
 
@@ -90,62 +113,75 @@ impl Trials {
         Trials {
             walks,
             count,
-            cost: [0; 2],
-            timed: 0,
+            ratios: [EVEN; 3],
+            trials: 0,
             best: 0,
             since: 0,
         }
     }
 
-    /// The candidate the next block takes (its index into the walks and
-    /// the walk), and whether its time is wanted ([`Trials::record`]).
-    pub(super) fn next(&mut self, trial: Trial, clock: bool) -> (usize, Walk, bool) {
+    /// Candidate `i`'s walk.
+    pub(super) fn walk(&self, i: usize) -> Walk {
+        // Two candidates: `& 1` keeps every index in bounds (no panic path).
+        self.walks[i & 1]
+    }
+
+    /// What the next block does.
+    pub(super) fn next(&mut self, trial: Trial, clock: bool) -> Step {
         let i = match trial {
             _ if self.count < 2 => 0,
             Trial::First => 0,
             Trial::Second => 1,
             Trial::Timed if !clock => 0,
-            Trial::Timed => match ROUND.get(self.timed) {
-                Some(&i) => i,
-                None if self.since >= self.retry_after() => !self.best & 1,
-                None => self.best,
-            },
-        };
-        let timed = trial == Trial::Timed && clock && self.count == 2;
-        (i, self.walks[i & 1], timed)
-    }
-
-    /// Blocks of the best between tries of the other.
-    fn retry_after(&self) -> u64 {
-        let (b, o) = (self.cost[self.best & 1], self.cost[!self.best & 1]);
-        (RETRY.saturating_mul(o) / b.max(1)).clamp(RETRY, RETRY_MAX)
-    }
-
-    /// What candidate `i` took for a block of `rays` rays: `ticks` of the
-    /// counter.
-    pub(super) fn record(&mut self, i: usize, ticks: u64, rays: usize) {
-        let per_ray = ticks / (rays as u64).max(1);
-        // Two candidates: `& 1` keeps every index in bounds (no panic path).
-        let (i, best) = (i & 1, self.best & 1);
-        if self.timed < ROUND.len() {
-            // The first round: the new time replaces the old (the first
-            // block's is cold), and the cheaper takes the blocks after.
-            self.cost[i] = per_ray;
-            self.timed += 1;
-            self.best = usize::from(self.cost[1] < self.cost[0]);
-        } else if i == best {
-            // The best's blocks average, a quarter each: one slow block
-            // (an interrupt) does not hand the batch to the other, a
-            // lasting change brings the other's next try closer.
-            self.cost[i] = (3 * self.cost[i] + per_ray) / 4;
-            self.since += 1;
-        } else {
-            // A try of the other: it takes over if cheaper now.
-            self.cost[i] = per_ray;
-            self.since = 0;
-            if per_ray < self.cost[best] {
-                self.best = i;
+            Trial::Timed => {
+                if self.trials < ROUND || self.since >= self.retry_after() {
+                    let first = (self.trials & 1) as usize;
+                    return Step::Trial {
+                        order: [first, 1 - first],
+                    };
+                }
+                self.since += 1;
+                self.best
             }
+        };
+        Step::Take(self.walk(i))
+    }
+
+    /// The median of the last three trials' ratios.
+    fn ratio(&self) -> u32 {
+        let [a, b, c] = self.ratios;
+        a.max(b).min(a.min(b).max(c))
+    }
+
+    /// Blocks of the best between trials.
+    fn retry_after(&self) -> u64 {
+        let r = u64::from(self.ratio().max(1));
+        let loser = if self.best == 1 {
+            u64::from(EVEN * EVEN) / r
+        } else {
+            r
+        };
+        (RETRY * loser / u64::from(EVEN)).clamp(RETRY, RETRY_MAX)
+    }
+
+    /// A trial's times: `ticks[k]` for the `rays[k]` rays of its half `k`,
+    /// walked by candidate `order[k]`.
+    pub(super) fn record(&mut self, order: [usize; 2], ticks: [u64; 2], rays: [usize; 2]) {
+        if self.trials > 0 {
+            let mut per_ray = [0u64; 2];
+            for k in 0..2 {
+                per_ray[order[k] & 1] = ticks[k] / (rays[k] as u64).max(1);
+            }
+            let r = per_ray[1].saturating_mul(u64::from(EVEN)) / per_ray[0].max(1);
+            let at = self.trials as usize % 3;
+            if let Some(slot) = self.ratios.get_mut(at) {
+                *slot = r.clamp(u64::from(EVEN / 4), u64::from(EVEN * 4)) as u32;
+            }
+        }
+        self.trials = self.trials.saturating_add(1);
+        self.since = 0;
+        if self.trials >= ROUND {
+            self.best = usize::from(self.ratio() < EVEN);
         }
     }
 }
@@ -176,74 +212,86 @@ mod tests {
 
     const PACKETS: Walk = Walk::Packets(PacketWidth::Sixteen);
 
-    /// Runs `N` blocks through `t`, candidate `i` costing `cost(block, i)`
-    /// ticks a ray; returns the walks taken.
-    fn run<const N: usize>(t: &mut Trials, cost: impl Fn(usize, usize) -> u64) -> [Walk; N] {
-        core::array::from_fn(|b| {
-            let (i, walk, timed) = t.next(Trial::Timed, true);
-            assert!(timed);
-            t.record(i, cost(b, i) * 256, 256);
-            walk
+    /// Runs `N` blocks of 256 rays through `t`, candidate `i` costing
+    /// `cost(block, i)` ticks a ray; returns for each block the share of
+    /// its rays candidate 1 walked, in quarters (0, 2: a trial, or 4).
+    fn run<const N: usize>(t: &mut Trials, cost: impl Fn(usize, usize) -> u64) -> [u8; N] {
+        core::array::from_fn(|b| match t.next(Trial::Timed, true) {
+            Step::Take(w) => 4 * u8::from(w == t.walks[1]),
+            Step::Trial { order } => {
+                t.record(order, order.map(|i| cost(b, i) * 128), [128; 2]);
+                2
+            }
         })
     }
 
     #[test]
-    fn the_cheaper_walk_takes_the_blocks_and_the_other_is_retried() {
-        for (cheap, want, other) in [(0, PACKETS, Walk::Single), (1, Walk::Single, PACKETS)] {
+    fn the_cheaper_walk_takes_the_blocks_and_trials_recur() {
+        for (cheap, want) in [(0, 0), (1, 4)] {
             let mut t = Trials::new([PACKETS, Walk::Single], 2);
-            let walks: [Walk; 1000] = run(&mut t, |_, i| if i == cheap { 100 } else { 300 });
-            assert_eq!(&walks[..3], &[PACKETS, Walk::Single, PACKETS]);
-            let tries = walks[3..].iter().filter(|&&w| w == other).count();
-            // Three times the cost: a try every 96 blocks.
-            assert!((9..=11).contains(&tries), "{tries} tries of {other:?}");
-            assert!(walks[3..99].iter().all(|&w| w == want));
+            let blocks: [u8; 1000] = run(&mut t, |_, i| if i == cheap { 100 } else { 300 });
+            assert_eq!(&blocks[..4], &[2, 2, 2, 2]);
+            let trials = blocks[4..].iter().filter(|&&b| b == 2).count();
+            // Three times the cost: a trial every 96 blocks.
+            assert!((9..=11).contains(&trials), "{trials} trials");
+            assert!(blocks[4..99].iter().all(|&b| b == want));
         }
+    }
+
+    #[test]
+    fn blocks_that_differ_from_one_another_do_not_mislead() {
+        // Every other block ten times dearer (background and mesh in a
+        // camera image), whichever walks it: packets still win.
+        let mut t = Trials::new([PACKETS, Walk::Single], 2);
+        let blocks: [u8; 300] = run(&mut t, |b, i| {
+            let per = if i == 0 { 100 } else { 150 };
+            if b % 2 == 1 {
+                per * 10
+            } else {
+                per
+            }
+        });
+        assert!(blocks[4..].iter().filter(|&&b| b == 0).count() >= 280);
+    }
+
+    #[test]
+    fn a_trial_interrupted_does_not_decide_alone() {
+        let mut t = Trials::new([Walk::Single, Walk::InTurns], 2);
+        // In turns 1.2x single rays; one trial's single-ray half switched out.
+        let blocks: [u8; 40] = run(&mut t, |b, i| match (b, i) {
+            (1, 0) => 100_000,
+            (_, 0) => 100,
+            _ => 120,
+        });
+        assert!(blocks[4..].iter().all(|&b| b == 0), "{blocks:?}");
     }
 
     #[test]
     fn a_batch_that_changes_character_is_followed() {
         let mut t = Trials::new([Walk::Single, Walk::InTurns], 2);
         // Rays in turns cheaper for the first 300 blocks, then dearer.
-        let walks: [Walk; 1000] = run(&mut t, |b, i| match (b < 300, i) {
+        let blocks: [u8; 1000] = run(&mut t, |b, i| match (b < 300, i) {
             (true, 1) | (false, 0) => 100,
             _ => 150,
         });
-        assert!(
-            walks[3..300]
-                .iter()
-                .filter(|&&w| w == Walk::InTurns)
-                .count()
-                > 280
-        );
-        // Found within the longest gap between tries.
-        let late = &walks[300 + RETRY_MAX as usize + 2..];
-        assert!(late.iter().filter(|&&w| w == Walk::Single).count() > late.len() * 9 / 10);
+        assert!(blocks[4..300].iter().filter(|&&b| b == 4).count() > 280);
+        // Found within two of the longest gaps between trials.
+        let late = &blocks[300 + 2 * RETRY_MAX as usize..];
+        assert!(late.iter().filter(|&&b| b == 0).count() > late.len() * 9 / 10);
     }
 
     #[test]
     fn without_a_counter_or_when_fixed_the_choice_is_the_fixed_one() {
         let mut t = Trials::new([PACKETS, Walk::Single], 2);
         for _ in 0..5 {
-            assert_eq!(t.next(Trial::Timed, false), (0, PACKETS, false));
-            assert_eq!(t.next(Trial::First, true), (0, PACKETS, false));
-            assert_eq!(t.next(Trial::Second, true), (1, Walk::Single, false));
+            assert_eq!(t.next(Trial::Timed, false), Step::Take(PACKETS));
+            assert_eq!(t.next(Trial::First, true), Step::Take(PACKETS));
+            assert_eq!(t.next(Trial::Second, true), Step::Take(Walk::Single));
         }
-        // One candidate: never timed.
+        // One candidate: never a trial.
         let mut one = Trials::new([Walk::Single, Walk::InTurns], 1);
-        assert_eq!(one.next(Trial::Timed, true), (0, Walk::Single, false));
-        assert_eq!(one.next(Trial::Second, true), (0, Walk::Single, false));
-    }
-
-    #[test]
-    fn one_slow_block_does_not_hand_over_the_batch() {
-        let mut t = Trials::new([Walk::Single, Walk::InTurns], 2);
-        // Single rays 100 a ray, in turns 130, one interrupted block of 1000.
-        let walks: [Walk; 40] = run(&mut t, |b, i| match (b, i) {
-            (10, 0) => 1000,
-            (_, 0) => 100,
-            _ => 130,
-        });
-        assert!(walks[3..].iter().filter(|&&w| w == Walk::Single).count() >= 36);
+        assert_eq!(one.next(Trial::Timed, true), Step::Take(Walk::Single));
+        assert_eq!(one.next(Trial::Second, true), Step::Take(Walk::Single));
     }
 
     #[test]
@@ -251,7 +299,7 @@ mod tests {
         if let (Some(a), Some(b)) = (ticks(), ticks()) {
             assert!(b >= a);
         } else {
-            assert!(cfg!(any(not(target_arch = "x86_64"), miri)));
+            assert!(!CLOCK);
         }
     }
 }

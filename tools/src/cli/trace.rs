@@ -41,7 +41,7 @@ pub(crate) struct Args {
     /// tiles, as `kdray rays --kind camera-tiled --packet N` does). The
     /// hits are the same bit for bit.
     #[arg(long, default_value = "auto", value_parser = parse_walk)]
-    packet: Option<PacketWidth>,
+    packet: Packets,
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     json: bool,
@@ -116,11 +116,11 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             .treelets_into(&mut lines)
             .map_err(|e| format!("{}: {e}", a.tree.display()))?;
         best_of(a.repeat, || {
-            pool.install(|| trace_into(&lined, &rays, &mut hits, query, a.packet, a.order));
+            pool.install(|| trace_into(&lined, &rays, &mut hits, query, a.packet.0, a.order));
         })
     } else {
         best_of(a.repeat, || {
-            pool.install(|| trace_into(&tree, &rays, &mut hits, query, a.packet, a.order));
+            pool.install(|| trace_into(&tree, &rays, &mut hits, query, a.packet.0, a.order));
         })
     };
     io::write_records(&a.output, &hits)?;
@@ -161,12 +161,17 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         say!("{}", j.finish());
     } else {
         say!(
-            "traced {} rays ({} {}) on {}, packets of {}{}, best of {} in {seconds:.3} s: {mrays:.2} Mrays/s (excluding file I/O)",
+            "traced {} rays ({} {}) on {}, {}{}, best of {} in {seconds:.3} s: {mrays:.2} Mrays/s (excluding file I/O)",
             rays.len(),
             hit_count,
             if a.any_hit { "occluded" } else { "hit" },
             plural(pool.current_num_threads(), "thread"),
-            packet_name(a.packet),
+            a.packet
+                .0
+                .map_or("each block's walk timed".into(), |w| format!(
+                    "packets of {}",
+                    w.lanes()
+                )),
             match (sorted, query) {
                 (false, _) => "",
                 (true, Query::Any) => ", in the Morton order of their origins",
@@ -206,7 +211,7 @@ fn trace_first_hits(
     if !(1..=MAX_FIRST_HITS).contains(&k) {
         return Err(format!("--first-hits {k}: must be 1 to {MAX_FIRST_HITS}").into());
     }
-    if a.packet.is_some_and(|w| w != PacketWidth::One) {
+    if a.packet.0.is_some_and(|w| w != PacketWidth::One) {
         return Err("--first-hits traces single rays: leave --packet at auto or 1".into());
     }
     if a.counts {
@@ -281,7 +286,7 @@ fn trace_scene_blob(a: &Args, pool: &rayon::ThreadPool, blob: &Blob) -> CmdResul
     if a.counts {
         return Err(refuse("has no --counts (they count one tree's nodes): trace the flattened mesh's tree (kdray build without --instances) for them").into());
     }
-    if a.packet.is_some_and(|w| w != PacketWidth::One) {
+    if a.packet.0.is_some_and(|w| w != PacketWidth::One) {
         return Err(refuse("traces single rays: leave --packet at auto or 1").into());
     }
     if a.order == Order::Morton {
@@ -342,19 +347,24 @@ fn best_of(repeat: u32, mut pass: impl FnMut()) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// `--packet` of `trace`: `auto` (`None`), or a width ([`parse_width`]).
-fn parse_walk(s: &str) -> Result<Option<PacketWidth>, String> {
+/// `--packet` of `trace`: `auto` (`None`: each block's walk timed), or a
+/// width ([`Batch::width`](kdray_kernel::Batch::width)).
+#[derive(Clone, Copy, Debug)]
+struct Packets(Option<PacketWidth>);
+
+/// `--packet` of `trace`: `auto`, or a width ([`parse_width`]).
+fn parse_walk(s: &str) -> Result<Packets, String> {
     match s {
-        "auto" => Ok(None),
+        "auto" => Ok(Packets(None)),
         _ => parse_width(s)
-            .map(Some)
+            .map(|w| Packets(Some(w)))
             .map_err(|_| format!("{s:?} is not a packet width: use auto, 1, 4, 8 or 16")),
     }
 }
 
 /// How `--packet` reads: `auto`, or the width.
-fn packet_name(width: Option<PacketWidth>) -> String {
-    width.map_or("auto".into(), |w| w.lanes().to_string())
+fn packet_name(packets: Packets) -> String {
+    packets.0.map_or("auto".into(), |w| w.lanes().to_string())
 }
 
 /// `--packet` (of `trace` and `render`): 1, 4, 8 or 16.

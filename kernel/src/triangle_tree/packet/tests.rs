@@ -462,10 +462,16 @@ fn batches_sort_blocks_into_kinds_time_them_and_every_walk_answers_alike() {
     };
     assert_eq!(plan.scattered.walks, [Walk::Single, in_turns]);
     assert_eq!(any.scattered.walks, [Walk::Single, packets]);
-    // Each kind's blocks timed apart: the first round of three blocks.
+    // Each kind's blocks timed apart: three blocks, three trials.
     let round = if CLOCK { 3 } else { 0 };
     tree.slice_with::<ClosestHit>(&mut plan, &random, &mut hits);
-    assert_eq!((plan.scattered.timed, plan.coherent.timed), (round, 0));
+    assert_eq!((plan.scattered.trials, plan.coherent.trials), (round, 0));
     tree.slice_with::<ClosestHit>(&mut plan, &fan, &mut hits);
-    assert_eq!((plan.scattered.timed, plan.coherent.timed), (round, round));
+    assert_eq!(
+        (plan.scattered.trials, plan.coherent.trials),
+        (round, round)
+    );
+    for (i, r) in fan.iter().enumerate() {
+        assert_eq!(hits[i].bits(), tree.closest_hit(r).bits(), "{r:?}");
+    }
 }

@@ -39,11 +39,11 @@ pub enum Query {
 /// A multiple of 16, so tasks never split a packet.
 const CHUNK: usize = 1024;
 
-/// The most rays a parallel task takes: 256 of the kernel's blocks, over
-/// which its batch call times its walks once (the trials' first blocks
-/// and the loser's rare tries take a few of them), and a gathered chunk
-/// of 2 MB.
-const TASK_MAX: usize = 1 << 16;
+/// The most rays a parallel task takes: 1024 of the kernel's blocks, over
+/// which its batch call times its walks once (its first four blocks and
+/// one in a hundred or more after are trials, half a block each walk),
+/// and a gathered chunk of 8 MB.
+const TASK_MAX: usize = 1 << 18;
 
 /// Rays per parallel task for a batch of `n`: four tasks a thread of the
 /// current pool, to balance cheap and expensive parts of an image, between

@@ -66,12 +66,12 @@ const EVEN: u32 = 256;
 
 /// The trials after the first come after this many blocks of the winner
 /// times the loser's cost relative to the winner's: a trial's losing half
-/// then takes about 1/64 of the kind's time, however much slower it is.
-const RETRY: u64 = 32;
+/// then takes about 1/128 of the kind's time, however much slower it is.
+const RETRY: u64 = 64;
 
-/// At most this many blocks between trials (64k rays), so a batch whose
-/// rays change character is followed within that.
-const RETRY_MAX: u64 = 256;
+/// At most this many blocks between trials (128k rays), so a batch whose
+/// rays change character is followed within two such gaps.
+const RETRY_MAX: u64 = 512;
 
 /// What a block does ([`Trials::next`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -232,9 +232,9 @@ mod tests {
             let blocks: [u8; 1000] = run(&mut t, |_, i| if i == cheap { 100 } else { 300 });
             assert_eq!(&blocks[..4], &[2, 2, 2, 2]);
             let trials = blocks[4..].iter().filter(|&&b| b == 2).count();
-            // Three times the cost: a trial every 96 blocks.
-            assert!((9..=11).contains(&trials), "{trials} trials");
-            assert!(blocks[4..99].iter().all(|&b| b == want));
+            // Three times the cost: a trial every 192 blocks.
+            assert!((4..=6).contains(&trials), "{trials} trials");
+            assert!(blocks[4..190].iter().all(|&b| b == want));
         }
     }
 
@@ -270,7 +270,7 @@ mod tests {
     fn a_batch_that_changes_character_is_followed() {
         let mut t = Trials::new([Walk::Single, Walk::InTurns], 2);
         // Rays in turns cheaper for the first 300 blocks, then dearer.
-        let blocks: [u8; 1000] = run(&mut t, |b, i| match (b < 300, i) {
+        let blocks: [u8; 2000] = run(&mut t, |b, i| match (b < 300, i) {
             (true, 1) | (false, 0) => 100,
             _ => 150,
         });

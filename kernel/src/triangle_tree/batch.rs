@@ -199,11 +199,13 @@ impl TriangleTree<'_> {
                     true => &mut plan.scattered,
                     false => &mut plan.coherent,
                 };
-                match trials.next(plan.trial, CLOCK) {
+                // A trial's halves are whole 16-lane packets: a block of
+                // fewer than 32 rays (a batch's last) takes the fixed rule.
+                let timed = CLOCK && rays.len() >= 32;
+                match trials.next(plan.trial, timed) {
                     Step::Take(walk) => self.block_with::<Q>(walk, rays, out, &mut memo),
                     Step::Trial { order } => {
-                        // Halves of whole 16-lane packets.
-                        let half = rays.len() / 2 & !15;
+                        let half = (rays.len() / 2) & !15;
                         let r = rays.split_at_checked(half).unwrap_or((rays, &[]));
                         let o = out.split_at_mut(half.min(out.len()));
                         let mut ticks_of = |i: usize, rays: &[Ray], out: &mut [Q::Out]| {

@@ -146,7 +146,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             .with("hits", hit_count)
             .with("threads", pool.current_num_threads())
             .with("query", if a.any_hit { "any" } else { "closest" })
-            .with("packet", packet_name(a.packet))
+            .with("packet", packet_json(a.packet))
             .with("order", if sorted { "morton" } else { "given" })
             .with("isa", kdray_kernel::isa().name())
             .with("repeat", a.repeat)
@@ -362,9 +362,9 @@ fn parse_walk(s: &str) -> Result<Packets, String> {
     }
 }
 
-/// How `--packet` reads: `auto`, or the width.
-fn packet_name(packets: Packets) -> String {
-    packets.0.map_or("auto".into(), |w| w.lanes().to_string())
+/// `--packet` in the JSON output: `"auto"`, or the width as a number.
+fn packet_json(packets: Packets) -> serde_json::Value {
+    packets.0.map_or("auto".into(), |w| w.lanes().into())
 }
 
 /// `--packet` (of `trace` and `render`): 1, 4, 8 or 16.

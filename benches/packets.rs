@@ -104,7 +104,7 @@ fn bench(c: &mut Criterion) {
                         black_box(rays),
                         &mut hits,
                         Batch {
-                            width,
+                            width: Some(width),
                             ..Batch::default()
                         },
                     )
@@ -121,7 +121,7 @@ fn bench(c: &mut Criterion) {
                     black_box(&shadow),
                     &mut occluded,
                     Batch {
-                        width,
+                        width: Some(width),
                         ..Batch::default()
                     },
                 )

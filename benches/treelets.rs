@@ -1,9 +1,11 @@
 //! Scattered closest-hit rays with and without the tree's treelets
 //! (`TriangleTree::treelets_into`: 7 split planes a vector step, four
 //! rays in turns) against the one-plane walk, on the same rays in one
-//! run; the answers are checked equal bit for bit. Camera rays, which the
-//! slice entry points never send through the treelets, show what a
-//! coherent batch pays (nothing: the same path).
+//! run; the answers are checked equal bit for bit. Each block takes its
+//! kind's second walk (`Trial::Second`): scattered blocks in turns,
+//! coherent ones as single rays. Camera rays, which the slice entry
+//! points never send through the treelets, show what a coherent batch
+//! pays (nothing: the same path).
 //!
 //! ```sh
 //! taskset -c 0 cargo bench --bench treelets
@@ -12,7 +14,7 @@
 mod common;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use kdray::kernel::{Batch, Hit, PacketWidth, Ray, TraceBatch, Treelet};
+use kdray::kernel::{Batch, Hit, Ray, TraceBatch, Treelet, Trial};
 use kdray::tools::blob::write_triangle_tree;
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
 use kdray::tools::camera::{random_rays, Camera};
@@ -37,7 +39,7 @@ fn treelets(c: &mut Criterion) {
                 rays,
                 &mut a,
                 Batch {
-                    width: PacketWidth::One,
+                    trial: Trial::Second,
                     ..Batch::default()
                 },
             );
@@ -45,7 +47,7 @@ fn treelets(c: &mut Criterion) {
                 rays,
                 &mut b,
                 Batch {
-                    width: PacketWidth::One,
+                    trial: Trial::Second,
                     ..Batch::default()
                 },
             );
@@ -63,7 +65,7 @@ fn treelets(c: &mut Criterion) {
                             rays,
                             &mut a,
                             Batch {
-                                width: PacketWidth::One,
+                                trial: Trial::Second,
                                 ..Batch::default()
                             },
                         )

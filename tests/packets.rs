@@ -214,7 +214,7 @@ fn slice_entry_points_match_single_rays() {
                 &rays,
                 &mut hits,
                 Batch {
-                    width,
+                    width: Some(width),
                     ..Batch::default()
                 },
             );
@@ -228,7 +228,7 @@ fn slice_entry_points_match_single_rays() {
                 &rays,
                 &mut occ,
                 Batch {
-                    width,
+                    width: Some(width),
                     ..Batch::default()
                 },
             );
@@ -281,12 +281,12 @@ fn batches_sorted_in_morton_order_answer_in_their_own_order() {
         .collect();
     let n = shadow.iter().filter(|r| tree.any_hit(r)).count();
     assert!(n > 2000 && n < 18_000, "{n} of 20,000 occluded");
-    let traced = |rays: &[Ray], query: Query, width: PacketWidth, order: Order| {
+    let traced = |rays: &[Ray], query: Query, width: Option<PacketWidth>, order: Order| {
         let mut hits = vec![Hit::MISS; rays.len()];
         trace_into(&tree, rays, &mut hits, query, width, order);
         hits.iter().map(Hit::bits).collect::<Vec<[u32; 4]>>()
     };
-    for width in [PacketWidth::One, PacketWidth::Eight] {
+    for width in [None, Some(PacketWidth::One), Some(PacketWidth::Eight)] {
         for order in [Order::Auto, Order::Given, Order::Morton] {
             let got = traced(&shadow, Query::Any, width, order);
             assert!(got == occluded, "{width:?} {order:?}");
@@ -320,7 +320,7 @@ fn batches_sorted_in_morton_order_answer_in_their_own_order() {
     let want: Vec<[u32; 4]> = random.iter().map(|r| tree.closest_hit(r).bits()).collect();
     let hit = want.iter().filter(|h| h[1] != MISS).count();
     assert!(hit > 2000 && hit < 19_000, "{hit} of 20,000 hit");
-    for width in [PacketWidth::One, PacketWidth::Eight] {
+    for width in [None, Some(PacketWidth::One), Some(PacketWidth::Eight)] {
         for order in [Order::Morton, Order::Given] {
             let got = traced(&random, Query::Closest, width, order);
             assert!(got == want, "{width:?} {order:?}");

@@ -287,10 +287,13 @@ typedef KdrayHitN_16 KdrayHit16;
 // batches; whatever it says, each ray gets its single ray's answer bit
 // for bit.
 typedef struct {
-  // The packet width for blocks of coherent rays: 1, 4, 8 or 16, or 0
-  // for the default (8). Order such rays in small image tiles (4x2
-  // pixels for 8 lanes). Blocks of scattered rays walk as single rays
-  // whatever the width. Another value is `KDRAY_STATUS_BAD_ARGUMENT`.
+  // The walk: 0 (the default) lets the batch call choose for
+  // each block of 256 rays by timing its walks on the batch (packets
+  // or single rays where origins lie close together, single rays or
+  // rays in turns where they lie far apart); 1, 4, 8 or 16 traces every
+  // block in packets of that many consecutive rays (1: single rays).
+  // Order coherent rays in small image tiles (4x2 pixels for 8 lanes).
+  // Another value is `KDRAY_STATUS_BAD_ARGUMENT`.
   uint32_t width;
   // Null, or caller memory (8-byte aligned, not overlapping the other
   // arrays) for an any-hit batch to be traced in the Morton order of

@@ -453,10 +453,13 @@ pub unsafe extern "C" fn kdray_any_hit16(
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct KdrayBatch {
-    /// The packet width for blocks of coherent rays: 1, 4, 8 or 16, or 0
-    /// for the default (8). Order such rays in small image tiles (4x2
-    /// pixels for 8 lanes). Blocks of scattered rays walk as single rays
-    /// whatever the width. Another value is `KDRAY_STATUS_BAD_ARGUMENT`.
+    /// The walk: 0 (the default) lets the batch call choose for
+    /// each block of 256 rays by timing its walks on the batch (packets
+    /// or single rays where origins lie close together, single rays or
+    /// rays in turns where they lie far apart); 1, 4, 8 or 16 traces every
+    /// block in packets of that many consecutive rays (1: single rays).
+    /// Order coherent rays in small image tiles (4x2 pixels for 8 lanes).
+    /// Another value is `KDRAY_STATUS_BAD_ARGUMENT`.
     pub width: u32,
     /// Null, or caller memory (8-byte aligned, not overlapping the other
     /// arrays) for an any-hit batch to be traced in the Morton order of
@@ -482,8 +485,8 @@ unsafe fn read_batch<'a>(batch: *const KdrayBatch) -> Result<Batch<'a>, KdraySta
     // SAFETY: checked non-null and aligned; a whole record by contract.
     let b = unsafe { batch.read() };
     let width = match b.width {
-        0 => PacketWidth::default(),
-        n => PacketWidth::from_lanes(n as usize).ok_or(KdrayStatus::BadArgument)?,
+        0 => None,
+        n => Some(PacketWidth::from_lanes(n as usize).ok_or(KdrayStatus::BadArgument)?),
     };
     let scratch: &mut [u64] = if b.scratch.is_null() || b.scratch_count == 0 {
         &mut []

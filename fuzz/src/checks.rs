@@ -34,7 +34,7 @@ use kdray::kernel::format::wire::{
 use kdray::kernel::{
     any_hit_brute, closest_hit_brute, closest_point_brute, crossings_brute, first_hits_brute,
     winding_crossings_brute, Batch, Hit, MortonGrid, Node, Packet, Packet4, Packet8, PacketWidth,
-    Ray, RayKey, SceneHit, ShallowTree, Streams, Treelet, Triangle, TriangleTree,
+    Ray, RayKey, SceneHit, ShallowTree, Streams, Treelet, Trial, Triangle, TriangleTree,
     STREAM_SCRATCH_WORDS,
 };
 use kdray::tools::blob::{write_triangle_tree, Blob};
@@ -310,28 +310,38 @@ fn packet_lanes<'t, const N: usize>(
         share_signs(&mut p);
     }
     assert_lanes(tree, &p, closest(tree, &p), any(tree, &p));
-    // The same rays through the slice entry points, which walk rays with
-    // scattered origins as single rays in turns (every tree under
-    // `cfg(fuzzing)`; trees above 1 MiB otherwise).
+    // The same rays through the slice entry points, each block's walk
+    // forced to each candidate (coherent blocks: packets, single rays;
+    // scattered ones: single rays, in turns or packets), and timed.
     let rays: Vec<Ray> = (0..N).map(|l| p.ray(l)).collect();
     let mut hits = vec![Hit::MISS; N];
-    tree.closest_hits(
-        &rays,
-        &mut hits,
-        Batch {
-            width: PacketWidth::One,
-            ..Batch::default()
-        },
-    );
     let mut occ = vec![false; N];
-    tree.any_hits(
-        &rays,
-        &mut occ,
-        Batch {
-            width: PacketWidth::One,
-            ..Batch::default()
-        },
-    );
+    for trial in [Trial::First, Trial::Second, Trial::Timed] {
+        tree.closest_hits(
+            &rays,
+            &mut hits,
+            Batch {
+                trial,
+                ..Batch::default()
+            },
+        );
+        tree.any_hits(
+            &rays,
+            &mut occ,
+            Batch {
+                trial,
+                ..Batch::default()
+            },
+        );
+        for ((ray, h), o) in rays.iter().zip(&hits).zip(&occ) {
+            assert_eq!(
+                h.bits(),
+                tree.closest_hit(ray).bits(),
+                "slice {trial:?}: {ray:?}"
+            );
+            assert_eq!(*o, tree.any_hit(ray), "slice any {trial:?}: {ray:?}");
+        }
+    }
     // And in the Morton order of their origins (hostile origins: NaN,
     // infinite, far apart), answers in their slots.
     let mut by_origin = vec![false; N];
@@ -340,7 +350,7 @@ fn packet_lanes<'t, const N: usize>(
         &rays,
         &mut by_origin,
         Batch {
-            width: PacketWidth::Eight,
+            width: Some(PacketWidth::Eight),
             scratch: &mut scratch,
             ..Batch::default()
         },

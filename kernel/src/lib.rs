@@ -153,6 +153,8 @@ pub use triangle::{
     first_hits_brute, winding_crossings_brute, ClosestPoint, SurfacePoint, Triangle, MAX_COORD,
 };
 pub use triangle_tree::packet::{Packet, Packet16, Packet4, Packet8, PacketWidth};
+#[doc(hidden)]
+pub use triangle_tree::Trial;
 pub use triangle_tree::{
     Batch, Counting, PacketLanes, ShallowTree, Streams, TraceBatch, TraversalCounts, Treelet,
     TreeletBufferTooSmall, TreeletTree, TriangleTree, INSIDE_RAYS, STREAM_SCRATCH_WORDS,

@@ -226,7 +226,7 @@ class _RayQueries(_Blob):
     _tree: Any
     _geometry = False
 
-    def _cast(self, rays: np.ndarray, nthreads: int, packet: int) -> tuple[Any, ...]:
+    def _cast(self, rays: np.ndarray, nthreads: int, packet: int | None) -> tuple[Any, ...]:
         raise NotImplementedError
 
     def cast_rays(
@@ -238,17 +238,19 @@ class _RayQueries(_Blob):
         directions: npt.ArrayLike | None = None,
         tnear: npt.ArrayLike = 0.0,
         tfar: npt.ArrayLike = np.inf,
-        packet: int = 8,
+        packet: int | None = None,
     ) -> dict[str, np.ndarray]:
         """The closest hit of each ray, with Open3D's result names.
 
         ``rays`` is ``(..., 6)``: origin then direction (any float dtype;
         traced in float32), over ``[tnear, tfar]``. Or give ``origins`` and
         ``directions`` (``(..., 3)`` each); ``tnear`` / ``tfar`` broadcast
-        to the leading shape. ``nthreads``: 0 for all cores. ``packet``: 1,
-        4, 8 or 16 consecutive rays traced together where they are
-        coherent (blocks found scattered take the single-ray walks in
-        turns); the answers are the same for any width.
+        to the leading shape. ``nthreads``: 0 for all cores. ``packet``:
+        ``None`` (each block of 256 rays takes the walk timed cheapest on
+        the batch: packets or single rays where origins lie close
+        together, single rays or rays in turns where they lie far apart),
+        or 1, 4, 8 or 16 consecutive rays traced together; the answers are
+        the same for any width.
 
         Returns ``t_hit`` (float32, inf on a miss), ``primitive_ids``
         (uint32, :data:`MISS` on a miss), ``primitive_uvs`` (``(..., 2)``,
@@ -273,13 +275,13 @@ class _RayQueries(_Blob):
         tfar: npt.ArrayLike = np.inf,
         nthreads: int = 0,
         *,
-        packet: int = 8,
+        packet: int | None = None,
     ) -> np.ndarray:
         """Whether each ray ``(..., 6)`` hits anything in ``[tnear, tfar]``: bool, of its leading shape."""
         r, lead = _rays(rays, None, None, tnear, tfar)
         return self._occluded(r, _nthreads(nthreads), packet).reshape(lead)
 
-    def _occluded(self, rays: np.ndarray, nthreads: int, packet: int) -> np.ndarray:
+    def _occluded(self, rays: np.ndarray, nthreads: int, packet: int | None) -> np.ndarray:
         raise NotImplementedError
 
     def count_intersections(self, rays: npt.ArrayLike, nthreads: int = 0) -> np.ndarray:
@@ -420,10 +422,10 @@ class TriangleTree(_RayQueries):
         lo, hi = self._tree.bounds
         return np.array(lo, dtype=_F32), np.array(hi, dtype=_F32)
 
-    def _cast(self, rays: np.ndarray, nthreads: int, packet: int) -> tuple[Any, ...]:
+    def _cast(self, rays: np.ndarray, nthreads: int, packet: int | None) -> tuple[Any, ...]:
         return self._tree.cast(rays, nthreads, packet)  # type: ignore[no-any-return]
 
-    def _occluded(self, rays: np.ndarray, nthreads: int, packet: int) -> np.ndarray:
+    def _occluded(self, rays: np.ndarray, nthreads: int, packet: int | None) -> np.ndarray:
         return self._tree.occluded(rays, nthreads, packet)  # type: ignore[no-any-return]
 
     def compute_closest_points(
@@ -531,14 +533,14 @@ class Scene(_RayQueries):
         """How many meshes the instances place."""
         return self._tree.mesh_count  # type: ignore[no-any-return]
 
-    def _cast(self, rays: np.ndarray, nthreads: int, packet: int) -> tuple[Any, ...]:
-        if packet not in (1, 4, 8, 16):
-            raise ValueError(f"packet must be 1, 4, 8 or 16, not {packet}")
+    def _cast(self, rays: np.ndarray, nthreads: int, packet: int | None) -> tuple[Any, ...]:
+        if packet not in (None, 1, 4, 8, 16):
+            raise ValueError(f"packet must be None, 1, 4, 8 or 16, not {packet}")
         return self._tree.cast(rays, nthreads)  # type: ignore[no-any-return]
 
-    def _occluded(self, rays: np.ndarray, nthreads: int, packet: int) -> np.ndarray:
-        if packet not in (1, 4, 8, 16):
-            raise ValueError(f"packet must be 1, 4, 8 or 16, not {packet}")
+    def _occluded(self, rays: np.ndarray, nthreads: int, packet: int | None) -> np.ndarray:
+        if packet not in (None, 1, 4, 8, 16):
+            raise ValueError(f"packet must be None, 1, 4, 8 or 16, not {packet}")
         return self._tree.occluded(rays, nthreads)  # type: ignore[no-any-return]
 
     def compute_closest_points(

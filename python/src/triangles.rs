@@ -98,7 +98,7 @@ fn trace(
     tree: &impl kdray_kernel::TraceBatch,
     rays: &[Ray],
     query: Query,
-    width: PacketWidth,
+    width: Option<PacketWidth>,
     nthreads: usize,
 ) -> PyResult<Vec<Hit>> {
     let mut hits = vec![Hit::MISS; rays.len()];
@@ -112,10 +112,15 @@ fn trace(
     Ok(hits)
 }
 
-/// `packet`: 1, 4, 8 or 16.
-fn width(packet: usize) -> PyResult<PacketWidth> {
-    PacketWidth::from_lanes(packet)
-        .ok_or_else(|| PyValueError::new_err(format!("packet must be 1, 4, 8 or 16, not {packet}")))
+/// `packet`: `None` (each block's walk timed on the batch), 1, 4, 8 or 16.
+fn width(packet: Option<usize>) -> PyResult<Option<PacketWidth>> {
+    packet
+        .map(|n| {
+            PacketWidth::from_lanes(n).ok_or_else(|| {
+                PyValueError::new_err(format!("packet must be None, 1, 4, 8 or 16, not {n}"))
+            })
+        })
+        .transpose()
 }
 
 #[pymethods]
@@ -223,7 +228,7 @@ impl TriangleTree {
         py: Python<'py>,
         rays: PyReadonlyArray2<'py, f32>,
         nthreads: usize,
-        packet: usize,
+        packet: Option<usize>,
     ) -> PyResult<CastArrays<'py>> {
         let rays = ray_slice(&rays)?;
         let (tree, width) = (self.held.tree(), width(packet)?);
@@ -239,7 +244,7 @@ impl TriangleTree {
         py: Python<'py>,
         rays: PyReadonlyArray2<'py, f32>,
         nthreads: usize,
-        packet: usize,
+        packet: Option<usize>,
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
         let rays = ray_slice(&rays)?;
         let (tree, width) = (self.held.tree(), width(packet)?);

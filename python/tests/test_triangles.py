@@ -51,10 +51,10 @@ def test_cast_rays_equals_brute_force(mesh: tuple[np.ndarray, np.ndarray]) -> No
     np.testing.assert_allclose(np.linalg.norm(got["primitive_normals"][hit], axis=1), 1, rtol=1e-5)
 
 
-@pytest.mark.parametrize("packet", [1, 4, 8, 16])
+@pytest.mark.parametrize("packet", [None, 1, 4, 8, 16])
 @pytest.mark.parametrize("nthreads", [0, 1, 3])
 def test_every_path_answers_alike(
-    sphere_tree: kdray.TriangleTree, packet: int, nthreads: int
+    sphere_tree: kdray.TriangleTree, packet: int | None, nthreads: int
 ) -> None:
     # Batches past the serial limit go to the pool; camera rays are coherent.
     lo, hi = sphere_tree.bounds

@@ -1,5 +1,6 @@
-//! Tracing many rays on all threads of the current rayon pool, one ray at
-//! a time or in 4-, 8- or 16-wide packets.
+//! Tracing many rays on all threads of the current rayon pool: each
+//! block's walk chosen by the kernel's batch calls (`width: None`, timed on
+//! the batch), or one ray at a time or in 4-, 8- or 16-wide packets.
 //!
 //! Packets are formed from consecutive rays, so they pay only when
 //! neighbouring rays are coherent: order ray files in small image tiles
@@ -34,10 +35,23 @@ pub enum Query {
     Any,
 }
 
-/// Rays per parallel task: large enough to amortise scheduling, small
-/// enough to balance cheap and expensive parts of an image. A multiple of
-/// 8, so tasks never split a packet.
+/// The fewest rays a parallel task takes: enough to amortise scheduling.
+/// A multiple of 16, so tasks never split a packet.
 const CHUNK: usize = 1024;
+
+/// The most rays a parallel task takes: 1024 of the kernel's blocks, over
+/// which its batch call times its walks once (its first four blocks and
+/// one in a hundred or more after are trials, half a block each walk),
+/// and a gathered chunk of 8 MB.
+const TASK_MAX: usize = 1 << 18;
+
+/// Rays per parallel task for a batch of `n`: four tasks a thread of the
+/// current pool, to balance cheap and expensive parts of an image, between
+/// [`CHUNK`] and [`TASK_MAX`], a multiple of [`CHUNK`].
+fn task_len(n: usize) -> usize {
+    let per = n.div_ceil(4 * rayon::current_num_threads().max(1));
+    per.next_multiple_of(CHUNK).clamp(CHUNK, TASK_MAX)
+}
 
 /// The order a batch's rays are traced in (the hits are written in the
 /// batch's order either way).
@@ -108,13 +122,14 @@ impl Order {
 
 /// Traces every ray of `rays` into the matching slot of `hits` (which must
 /// be as long), in parallel on the current rayon pool, `width` rays at a
-/// time, in the order `order` picks.
+/// time ([`Batch::width`]; `None`: each block's walk timed), in the order
+/// `order` picks.
 pub fn trace_into(
     tree: &impl TraceBatch,
     rays: &[Ray],
     hits: &mut [Hit],
     query: Query,
-    width: PacketWidth,
+    width: Option<PacketWidth>,
     order: Order,
 ) {
     let sorted = order.sorts(&tree.tree(), rays, query);
@@ -127,9 +142,10 @@ pub fn trace_into(
         // slots after. (Gathering the whole batch first took as long, and
         // a copy of it: 32 MB a million rays.)
         let mut out = vec![Hit::MISS; order.len()];
+        let task = task_len(order.len());
         order
-            .par_chunks(CHUNK)
-            .zip(out.par_chunks_mut(CHUNK))
+            .par_chunks(task)
+            .zip(out.par_chunks_mut(task))
             .for_each(|(o, h)| {
                 let chunk: Vec<Ray> = o.iter().map(|&i| rays[item_index(i)]).collect();
                 trace_serial(tree, &chunk, h, query, width);
@@ -170,20 +186,22 @@ fn trace_chunks(
     rays: &[Ray],
     hits: &mut [Hit],
     query: Query,
-    width: PacketWidth,
+    width: Option<PacketWidth>,
 ) {
-    rays.par_chunks(CHUNK)
-        .zip(hits.par_chunks_mut(CHUNK))
+    let task = task_len(rays.len());
+    rays.par_chunks(task)
+        .zip(hits.par_chunks_mut(task))
         .for_each(|(r, h)| trace_serial(tree, r, h, query, width));
 }
 
-/// Traces on the calling thread, `width` rays at a time.
+/// Traces on the calling thread, `width` rays at a time ([`Batch::width`]),
+/// in one batch call.
 pub fn trace_serial(
     tree: &impl TraceBatch,
     rays: &[Ray],
     hits: &mut [Hit],
     query: Query,
-    width: PacketWidth,
+    width: Option<PacketWidth>,
 ) {
     match query {
         Query::Closest => tree.closest_hits(
@@ -195,19 +213,17 @@ pub fn trace_serial(
             },
         ),
         Query::Any => {
-            let mut occluded = [false; CHUNK];
-            for (r, h) in rays.chunks(CHUNK).zip(hits.chunks_mut(CHUNK)) {
-                tree.any_hits(
-                    r,
-                    &mut occluded,
-                    Batch {
-                        width,
-                        ..Batch::default()
-                    },
-                );
-                for (h, &o) in h.iter_mut().zip(&occluded) {
-                    *h = Hit::occlusion(o);
-                }
+            let mut occluded = vec![false; rays.len().min(hits.len())];
+            tree.any_hits(
+                rays,
+                &mut occluded,
+                Batch {
+                    width,
+                    ..Batch::default()
+                },
+            );
+            for (h, &o) in hits.iter_mut().zip(&occluded) {
+                *h = Hit::occlusion(o);
             }
         }
     }

@@ -104,9 +104,9 @@ fn build_info_trace_round_trip() {
     );
 }
 
-/// `--packet 1|4|8`, with threads, JSON and any hit: the same hit file
-/// bytes whatever the width (2,101 rays: several parallel chunks and a
-/// last, partly empty packet); a width other than 1, 4, 8 is refused.
+/// `--packet auto|1|4|8|16`, with threads, JSON and any hit: the same hit
+/// file bytes whatever the width (2,101 rays: several parallel chunks and
+/// a last, partly empty packet); a width other than those is refused.
 #[test]
 fn trace_packets_match_single_rays() {
     let obj = write(&tmp("pk.obj"), QUAD_OBJ);
@@ -128,7 +128,15 @@ fn trace_packets_match_single_rays() {
     let rays = write(&tmp("pk.rays"), &ray_bytes(&rays));
     for any in [false, true] {
         let mut reference: Option<Vec<u8>> = None;
-        for (packet, threads) in [("1", "1"), ("4", "2"), ("8", "1"), ("8", "2"), ("16", "2")] {
+        for (packet, threads) in [
+            ("auto", "1"),
+            ("1", "1"),
+            ("4", "2"),
+            ("8", "1"),
+            ("8", "2"),
+            ("16", "2"),
+            ("auto", "2"),
+        ] {
             let hits = tmp(&format!("pk-{packet}-{threads}-{any}.hits"));
             let hits_s = hits.display().to_string();
             let mut args = vec![
@@ -150,7 +158,11 @@ fn trace_packets_match_single_rays() {
             }
             let o = kdray(&args);
             assert!(o.status.success(), "{}", stderr(&o));
-            assert_eq!(json(&o)["packet"].to_string(), packet, "{}", stdout(&o));
+            let named = match packet {
+                "auto" => "\"auto\"".to_string(),
+                n => n.to_string(),
+            };
+            assert_eq!(json(&o)["packet"].to_string(), named, "{}", stdout(&o));
             let h = std::fs::read(&hits).unwrap();
             assert_eq!(h.len(), 2101 * 16);
             match &reference {
@@ -165,7 +177,7 @@ fn trace_packets_match_single_rays() {
     let out = tmp("pk-bad.hits").display().to_string();
     let o = kdray(&["trace", &tree, &rays, "-o", &out, "--packet", "3"]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("1, 4, 8 or 16"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("auto, 1, 4, 8 or 16"), "{}", stderr(&o));
 }
 
 /// A large batch of scattered shadow rays is traced in the Morton order
@@ -1398,7 +1410,7 @@ fn trace_of_a_scene_honours_or_refuses_every_option() {
     let hits = dir.join("r.hits").display().to_string();
     for (extra, want) in [
         (&["--counts"][..], "no --counts"),
-        (&["--packet", "8"][..], "leave --packet at 1"),
+        (&["--packet", "8"][..], "leave --packet at auto or 1"),
         (&["--order", "morton"][..], "instead of --order morton"),
     ] {
         let o = kdray(&[&["trace", &scene, &rays, "-o", &hits][..], extra].concat());

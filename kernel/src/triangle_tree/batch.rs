@@ -1,12 +1,14 @@
 //! Batches: a slice of rays, each ray's answer in its slot, traced by
-//! whichever walk suits each block of [`BLOCK`] rays: packets of
-//! consecutive rays where their origins lie close together (camera tiles),
-//! single rays walked in turns where they lie far apart (bounces, random
-//! rays), and, given scratch memory, a scattered any-hit batch in the
-//! Morton order of its origins. Every path gives each ray its single
-//! ray's answer, bit for bit.
+//! whichever walk suits each block of [`BLOCK`] rays, timed on the batch
+//! (`walk_choice.rs`): packets of consecutive rays or single rays where
+//! their origins lie close together (camera tiles), single rays alone or
+//! walked in turns where they lie far apart (bounces, random rays), and,
+//! given scratch memory, a scattered any-hit batch in the Morton order of
+//! its origins. Every path gives each ray its single ray's answer, bit for
+//! bit.
 
 use super::packet::{lane_bools, LaneRays, LaneStack, PacketWidth};
+use super::walk_choice::{ticks, Step, Trial, Trials, Walk, CLOCK};
 use super::TriangleTree;
 use crate::geometry::{item_index, sort_items, Bounds, Hit, MortonGrid, Ray, MISS};
 use crate::lanes::{dispatch, Job, Lanes, Level};
@@ -16,11 +18,26 @@ use crate::lanes::{dispatch, Job, Lanes, Level};
 /// Whatever it says, each ray gets its single ray's answer bit for bit.
 #[derive(Debug, Default)]
 pub struct Batch<'s> {
-    /// The packet width for blocks of coherent rays (8 by default): order
-    /// such rays in small image tiles (4x2 pixels for 8 lanes, two such
-    /// tiles side by side for 16). Blocks of scattered rays walk as single
-    /// rays whatever the width.
-    pub width: PacketWidth,
+    /// How many consecutive rays walk together. `None` (the default): the
+    /// batch call chooses for each block of 256 rays, by timing the walks
+    /// on the batch itself. It sorts each block into coherent (origins
+    /// close together: camera rays, shadow rays in pixel or Morton order)
+    /// or scattered (random rays, bounces), and for each kind times its
+    /// two candidates on the first blocks and keeps the cheaper per ray,
+    /// trying the other again now and then: coherent blocks take packets
+    /// at the widest width one register holds (16 lanes with AVX-512, 8
+    /// with AVX2, else 4) or single rays; scattered closest-hit blocks
+    /// single rays or rays walked in turns (through the treelets of a
+    /// [`TreeletTree`](crate::TreeletTree)), scattered any-hit blocks
+    /// single rays or packets. Without a counter to time them (off x86-64)
+    /// coherent blocks take packets and scattered ones single rays. For
+    /// packets to pay, order coherent rays in small image tiles (4x2
+    /// pixels for 8 lanes, 4x4 for 16).
+    ///
+    /// `Some(width)`: every block in packets of `width`
+    /// ([`PacketWidth::One`]: each ray walked alone), nothing sorted or
+    /// timed: for benchmarks and for callers who have measured their rays.
+    pub width: Option<PacketWidth>,
     /// Room for an any-hit batch to be traced in the Morton order of its
     /// rays' origins (a radix sort of one key a ray): two words a ray
     /// (`2 * rays.len()`). Give it for a large batch of scattered shadow
@@ -33,6 +50,11 @@ pub struct Batch<'s> {
     /// Whether the batch is walked as ray streams, which keep their rays'
     /// ids and intervals in `scratch`: [`STREAM_SCRATCH_WORDS`](crate::STREAM_SCRATCH_WORDS) words.
     pub streams: Streams,
+    /// How the blocks of a batch with `width: None` choose their walk:
+    /// timed (the default), or fixed, for the tests, fuzz targets and
+    /// benchmarks that must reach a given walk.
+    #[doc(hidden)]
+    pub trial: Trial,
 }
 
 /// Whether a batch is walked as ray streams: blocks of 256 rays walked
@@ -87,7 +109,7 @@ impl TriangleTree<'_> {
         if batch.streams == Streams::Always {
             return self.closest_hits_streamed(rays, hits, batch.scratch);
         }
-        self.slice_with::<ClosestHit>(batch.width, rays, hits);
+        self.slice_with::<ClosestHit>(&mut Plan::new::<ClosestHit>(&batch), rays, hits);
     }
 
     /// Whether each ray hits anything: `occluded[i] == any_hit(&rays[i])`.
@@ -103,7 +125,8 @@ impl TriangleTree<'_> {
         }
         if batch.scratch.len() / 2 < rays.len() {
             // No room to sort: the batch in its own order, in place.
-            return self.slice_with::<AnyHit>(batch.width, rays, occluded);
+            let mut plan = Plan::new::<AnyHit>(&batch);
+            return self.slice_with::<AnyHit>(&mut plan, rays, occluded);
         }
         self.any_hits_each(rays, batch, |i, o| {
             if let Some(x) = occluded.get_mut(i) {
@@ -122,7 +145,8 @@ impl TriangleTree<'_> {
         batch: Batch<'_>,
         mut answer: impl FnMut(usize, bool),
     ) {
-        let (width, scratch) = (batch.width, batch.scratch);
+        let mut plan = Plan::new::<AnyHit>(&batch);
+        let scratch = batch.scratch;
         let n = rays.len();
         let (items, spare) = scratch.split_at_mut(scratch.len() / 2);
         let mut sorted = false;
@@ -152,7 +176,7 @@ impl TriangleTree<'_> {
                 *c = rays.get(at(k)).copied().unwrap_or(none);
             }
             if let (Some(c), Some(a)) = (chunk.get(..m), answers.get_mut(..m)) {
-                self.slice_with::<AnyHit>(width, c, a);
+                self.slice_with::<AnyHit>(&mut plan, c, a);
             }
             for (k, &a) in answers.iter().enumerate().take(m) {
                 answer(at(k), a);
@@ -160,39 +184,74 @@ impl TriangleTree<'_> {
         }
     }
 
-    /// A batch in its own order at any width, for either query.
-    fn slice_with<Q: SliceQuery>(&self, width: PacketWidth, rays: &[Ray], out: &mut [Q::Out]) {
-        // The scalar path traces each ray alone (the packet entry points'
-        // `scalar-packets` rule).
-        let width = if cfg!(feature = "scalar-packets") {
-            PacketWidth::One
-        } else {
-            width
-        };
-        // Blocks of rays whose origins lie far apart share no cells: single
-        // rays walked in turns (`turns.rs`). Blocks hold whole packets of
-        // every width, so the others are packed as the slice is.
+    /// A batch in its own order, each block in the walk `plan` gives it,
+    /// for either query.
+    pub(super) fn slice_with<Q: SliceQuery>(
+        &self,
+        plan: &mut Plan,
+        rays: &[Ray],
+        out: &mut [Q::Out],
+    ) {
         let mut memo = Q::Memo::default();
-        let turns = Q::IN_TURNS_WALK.filter(|_| {
-            IN_TURNS && (self.data_bytes() > TURNS_MIN_BYTES || !self.lines.is_empty())
-        });
         for (rays, out) in rays.chunks(BLOCK).zip(out.chunks_mut(BLOCK)) {
-            if let Some(in_turns) = turns.filter(|_| scattered(rays, &self.bounds)) {
-                in_turns(self, rays, out);
-                continue;
-            }
-            match width {
-                PacketWidth::One => {
-                    for (o, r) in out.iter_mut().zip(rays) {
-                        *o = Q::one_after(self, r, &mut memo);
+            let Some(width) = plan.width else {
+                let trials = match scattered(rays, &self.bounds) {
+                    true => &mut plan.scattered,
+                    false => &mut plan.coherent,
+                };
+                // A trial's halves are whole 16-lane packets: a block of
+                // fewer than 32 rays (a batch's last) takes the fixed rule.
+                let timed = CLOCK && rays.len() >= 32;
+                match trials.next(plan.trial, timed) {
+                    Step::Take(walk) => self.block_with::<Q>(walk, rays, out, &mut memo),
+                    Step::Trial { order } => {
+                        let half = (rays.len() / 2) & !15;
+                        let r = rays.split_at_checked(half).unwrap_or((rays, &[]));
+                        let o = out.split_at_mut(half.min(out.len()));
+                        let mut ticks_of = |i: usize, rays: &[Ray], out: &mut [Q::Out]| {
+                            let start = ticks();
+                            self.block_with::<Q>(trials.walk(i), rays, out, &mut memo);
+                            ticks().zip(start).map_or(0, |(e, s)| e.wrapping_sub(s))
+                        };
+                        let t = [ticks_of(order[0], r.0, o.0), ticks_of(order[1], r.1, o.1)];
+                        trials.record(order, t, [r.0.len(), r.1.len()]);
                     }
                 }
-                PacketWidth::Four => dispatch(Slice4::<Q>(self, rays, out)),
-                // 16 lanes only where they are one register (`PacketWidth::Sixteen`).
-                PacketWidth::Sixteen if sixteen_lanes() => {
-                    dispatch(Slice16::<Q>(self, rays, out));
+                continue;
+            };
+            self.block_with::<Q>(Walk::Packets(width), rays, out, &mut memo);
+        }
+    }
+
+    /// One block of rays (at most [`BLOCK`]) in the walk `walk`.
+    #[inline(always)]
+    fn block_with<Q: SliceQuery>(
+        &self,
+        walk: Walk,
+        rays: &[Ray],
+        out: &mut [Q::Out],
+        memo: &mut Q::Memo,
+    ) {
+        // The scalar path traces each ray alone (the packet entry points'
+        // `scalar-packets` rule).
+        let walk = match walk {
+            Walk::Packets(_) if cfg!(feature = "scalar-packets") => Walk::Single,
+            w => w,
+        };
+        match (walk, Q::IN_TURNS_WALK) {
+            (Walk::InTurns, Some(in_turns)) => in_turns(self, rays, out),
+            (Walk::Single | Walk::InTurns | Walk::Packets(PacketWidth::One), _) => {
+                for (o, r) in out.iter_mut().zip(rays) {
+                    *o = Q::one_after(self, r, memo);
                 }
-                PacketWidth::Eight | PacketWidth::Sixteen => dispatch(Slice8::<Q>(self, rays, out)),
+            }
+            (Walk::Packets(PacketWidth::Four), _) => dispatch(Slice4::<Q>(self, rays, out)),
+            // 16 lanes only where they are one register (`PacketWidth::Sixteen`).
+            (Walk::Packets(PacketWidth::Sixteen), _) if sixteen_lanes() => {
+                dispatch(Slice16::<Q>(self, rays, out));
+            }
+            (Walk::Packets(PacketWidth::Eight | PacketWidth::Sixteen), _) => {
+                dispatch(Slice8::<Q>(self, rays, out));
             }
         }
     }
@@ -208,36 +267,51 @@ impl TriangleTree<'_> {
     pub fn rays_scattered(&self, rays: &[Ray]) -> bool {
         scattered(rays, &self.bounds)
     }
-
-    /// The bytes a walk reads from: nodes, primitive indices, triangles.
-    pub(super) fn data_bytes(&self) -> usize {
-        core::mem::size_of_val(self.nodes)
-            + core::mem::size_of_val(self.prims)
-            + core::mem::size_of_val(self.triangles)
-    }
 }
 
 /// The rays the batch calls choose a path for at a time (a multiple
 /// of every packet width).
 const BLOCK: usize = 256;
 
-/// Whether scattered rays are walked in turns: where the walks' misses can
-/// overlap (an out-of-order core with caches and a prefetch, x86-64 here).
-/// Elsewhere (a microcontroller) turns would only add work and 6 KiB of
-/// stack for their eight walks.
-const IN_TURNS: bool = cfg!(target_arch = "x86_64");
+/// What a batch call carries from block to block: the width it was given,
+/// or each kind of block's trials.
+pub(super) struct Plan {
+    /// [`Batch::width`].
+    width: Option<PacketWidth>,
+    /// [`Batch::trial`].
+    trial: Trial,
+    /// Blocks whose rays start close together: packets at the widest
+    /// width one register holds, or single rays.
+    pub(super) coherent: Trials,
+    /// Blocks whose rays start far apart: single rays, or rays walked in
+    /// turns where the query and the processor have them (closest hits on
+    /// x86-64), else packets.
+    pub(super) scattered: Trials,
+}
 
-/// Trees of at most this many bytes (nodes, indices and triangles) walk
-/// scattered rays one at a time: 1 MiB, the L2 cache of the x86-64 cores
-/// measured. A tree that stays in cache has no misses for turns to
-/// overlap, only their hand-over to pay: the teapot (455 KB) ran random
-/// rays at 0.71x in turns, where the bunny (4.7 MB) ran them at 1.08-1.45x
-/// (one core, interleaved, plain build). Sponza (6.0 MB) still loses on
-/// random rays (0.76-0.94x against no turns, three interleaved rounds):
-/// they end after 8.3 steps, in the top of the tree, which stays cached;
-/// the bunny's take 11.3 and gain 1.05-1.14x. Under `cfg(fuzzing)` every tree qualifies, so the fuzz
-/// targets' small trees reach the walk in turns.
-pub(super) const TURNS_MIN_BYTES: usize = if cfg!(fuzzing) { 0 } else { 1 << 20 };
+impl Plan {
+    /// The plan `batch` asks for.
+    pub(super) fn new<Q: SliceQuery>(batch: &Batch<'_>) -> Plan {
+        let packets = Walk::Packets(widest());
+        let in_turns = match Q::IN_TURNS_WALK {
+            Some(_) if IN_TURNS => Walk::InTurns,
+            _ => packets,
+        };
+        Plan {
+            width: batch.width,
+            trial: batch.trial,
+            coherent: Trials::new([packets, Walk::Single], 2),
+            scattered: Trials::new([Walk::Single, in_turns], 2),
+        }
+    }
+}
+
+/// Whether scattered rays may be walked in turns: where the walks' misses
+/// can overlap (an out-of-order core with caches and a prefetch, x86-64
+/// here, where the trials time them against single rays). Elsewhere (a
+/// microcontroller) turns would only add work and 6 KiB of stack for
+/// their eight walks.
+const IN_TURNS: bool = cfg!(target_arch = "x86_64");
 
 /// Whether consecutive rays of `rays` start far apart: on average more
 /// than 1/16 of the scene's largest extent (largest coordinate difference),
@@ -259,6 +333,19 @@ pub(super) fn scattered(rays: &[Ray], bounds: &Bounds) -> bool {
         }
     }
     gaps > extent * pairs as f32 / 16.0
+}
+
+/// The widest packets one register holds, the coherent blocks' candidate:
+/// 16 lanes with AVX-512, 8 with AVX (built for) or AVX2 (detected), else
+/// 4 (SSE2, NEON, simd128).
+pub(super) fn widest() -> PacketWidth {
+    if sixteen_lanes() {
+        PacketWidth::Sixteen
+    } else if cfg!(target_feature = "avx") || crate::cpu::isa() >= crate::cpu::Isa::Avx2 {
+        PacketWidth::Eight
+    } else {
+        PacketWidth::Four
+    }
 }
 
 /// Whether the batch calls trace `PacketWidth::Sixteen` in 16
@@ -295,7 +382,7 @@ slice_jobs! {
 }
 
 /// A query the batch calls run, as a single ray and over lanes.
-trait SliceQuery {
+pub(super) trait SliceQuery {
     /// One ray's answer.
     type Out: Copy;
     /// What one ray's query leaves for the next in a coherent slice.
@@ -321,7 +408,7 @@ trait SliceQuery {
 type InTurns<Out> = fn(&TriangleTree<'_>, &[Ray], &mut [Out]);
 
 /// The closest hit.
-struct ClosestHit;
+pub(super) struct ClosestHit;
 
 impl SliceQuery for ClosestHit {
     type Out = Hit;
@@ -343,10 +430,10 @@ impl SliceQuery for ClosestHit {
 }
 
 /// Any hit (occlusion).
-struct AnyHit;
+pub(super) struct AnyHit;
 
 /// The triangle that occluded the last ray ([`MISS`] before any did).
-struct Occluder(u32);
+pub(super) struct Occluder(u32);
 
 impl Default for Occluder {
     fn default() -> Occluder {

@@ -18,12 +18,15 @@ mod treelet_tree;
 mod treelets;
 mod turns;
 mod walk;
+mod walk_choice;
 
 pub use batch::{Batch, Streams};
 pub use packet::PacketLanes;
 pub use streams::STREAM_SCRATCH_WORDS;
 pub use treelet_tree::{TraceBatch, TreeletTree};
 pub use treelets::{Treelet, TreeletBufferTooSmall};
+#[doc(hidden)]
+pub use walk_choice::Trial;
 
 pub use counting::Counting;
 pub use counts::TraversalCounts;
@@ -49,7 +52,9 @@ pub struct TriangleTree<'a> {
     pub(crate) bounds: Bounds,
     pub(crate) max_depth: u32,
     /// The treelets scattered rays walk, if any: set only inside a
-    /// [`TreeletTree`], empty for a tree as loaded.
+    /// [`TreeletTree`], empty for a tree as loaded. Read only by the
+    /// treelet walk, which needs AVX2 (x86-64).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     pub(crate) lines: &'a [Treelet],
 }
 

@@ -73,7 +73,13 @@ fn mrays(tree: &kdray_kernel::TriangleTree<'_>, rays: &[Ray]) -> f64 {
     let best = (0..3)
         .map(|_| {
             let t = Instant::now();
-            trace_serial(tree, rays, &mut hits, Query::Closest, PacketWidth::One);
+            trace_serial(
+                tree,
+                rays,
+                &mut hits,
+                Query::Closest,
+                Some(PacketWidth::One),
+            );
             t.elapsed().as_secs_f64()
         })
         .fold(f64::INFINITY, f64::min);

@@ -70,12 +70,18 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     let mut hits = vec![Hit::MISS; rays.len()];
     let t = Instant::now();
     // The camera's rays are in row order, not tiles: single rays.
-    trace_serial(&tree, &rays, &mut hits, Query::Closest, PacketWidth::One);
+    trace_serial(
+        &tree,
+        &rays,
+        &mut hits,
+        Query::Closest,
+        Some(PacketWidth::One),
+    );
     let one = t.elapsed().as_secs_f64();
     let pool = thread_pool(None)?;
     let t = Instant::now();
     pool.install(|| {
-        let (q, w) = (Query::Closest, PacketWidth::One);
+        let (q, w) = (Query::Closest, Some(PacketWidth::One));
         trace_into(&tree, &rays, &mut hits, q, w, Order::Auto);
     });
     let all = t.elapsed().as_secs_f64();

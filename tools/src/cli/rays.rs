@@ -122,7 +122,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
                 &rays,
                 &mut hits,
                 Batch {
-                    width: PacketWidth::One,
+                    width: Some(PacketWidth::One),
                     ..Batch::default()
                 },
             );

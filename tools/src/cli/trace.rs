@@ -33,12 +33,15 @@ pub(crate) struct Args {
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
-    /// Rays traced together: 1 (single rays), 4, 8 or 16 (packets of that
-    /// many consecutive rays: order the file in pixel tiles, as `kdray rays
-    /// --kind camera-tiled --packet N` does). The hits are the same bit for
-    /// bit.
-    #[arg(long, default_value = "1", value_parser = parse_width)]
-    packet: PacketWidth,
+    /// Rays traced together: `auto` (each block of 256 rays takes the walk
+    /// timed cheapest on the batch: packets as wide as one register holds
+    /// or single rays where origins lie close together, single rays or
+    /// rays in turns where they lie far apart), or 1 (single rays), 4, 8 or
+    /// 16 (packets of that many consecutive rays: order the file in pixel
+    /// tiles, as `kdray rays --kind camera-tiled --packet N` does). The
+    /// hits are the same bit for bit.
+    #[arg(long, default_value = "auto", value_parser = parse_walk)]
+    packet: Packets,
     /// Print one JSON object instead of the summary.
     #[arg(long)]
     json: bool,
@@ -113,11 +116,11 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             .treelets_into(&mut lines)
             .map_err(|e| format!("{}: {e}", a.tree.display()))?;
         best_of(a.repeat, || {
-            pool.install(|| trace_into(&lined, &rays, &mut hits, query, a.packet, a.order));
+            pool.install(|| trace_into(&lined, &rays, &mut hits, query, a.packet.0, a.order));
         })
     } else {
         best_of(a.repeat, || {
-            pool.install(|| trace_into(&tree, &rays, &mut hits, query, a.packet, a.order));
+            pool.install(|| trace_into(&tree, &rays, &mut hits, query, a.packet.0, a.order));
         })
     };
     io::write_records(&a.output, &hits)?;
@@ -143,7 +146,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             .with("hits", hit_count)
             .with("threads", pool.current_num_threads())
             .with("query", if a.any_hit { "any" } else { "closest" })
-            .with("packet", a.packet.lanes())
+            .with("packet", packet_json(a.packet))
             .with("order", if sorted { "morton" } else { "given" })
             .with("isa", kdray_kernel::isa().name())
             .with("repeat", a.repeat)
@@ -158,12 +161,17 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         say!("{}", j.finish());
     } else {
         say!(
-            "traced {} rays ({} {}) on {}, packets of {}{}, best of {} in {seconds:.3} s: {mrays:.2} Mrays/s (excluding file I/O)",
+            "traced {} rays ({} {}) on {}, {}{}, best of {} in {seconds:.3} s: {mrays:.2} Mrays/s (excluding file I/O)",
             rays.len(),
             hit_count,
             if a.any_hit { "occluded" } else { "hit" },
             plural(pool.current_num_threads(), "thread"),
-            a.packet.lanes(),
+            a.packet
+                .0
+                .map_or("each block's walk timed".into(), |w| format!(
+                    "packets of {}",
+                    w.lanes()
+                )),
             match (sorted, query) {
                 (false, _) => "",
                 (true, Query::Any) => ", in the Morton order of their origins",
@@ -203,8 +211,8 @@ fn trace_first_hits(
     if !(1..=MAX_FIRST_HITS).contains(&k) {
         return Err(format!("--first-hits {k}: must be 1 to {MAX_FIRST_HITS}").into());
     }
-    if a.packet != PacketWidth::One {
-        return Err("--first-hits traces single rays: leave --packet at 1".into());
+    if a.packet.0.is_some_and(|w| w != PacketWidth::One) {
+        return Err("--first-hits traces single rays: leave --packet at auto or 1".into());
     }
     if a.counts {
         return Err(
@@ -278,8 +286,8 @@ fn trace_scene_blob(a: &Args, pool: &rayon::ThreadPool, blob: &Blob) -> CmdResul
     if a.counts {
         return Err(refuse("has no --counts (they count one tree's nodes): trace the flattened mesh's tree (kdray build without --instances) for them").into());
     }
-    if a.packet != PacketWidth::One {
-        return Err(refuse("traces single rays: leave --packet at 1").into());
+    if a.packet.0.is_some_and(|w| w != PacketWidth::One) {
+        return Err(refuse("traces single rays: leave --packet at auto or 1").into());
     }
     if a.order == Order::Morton {
         return Err(refuse("traces its rays in the file's order: sort the file with `kdray sort-rays` instead of --order morton").into());
@@ -337,6 +345,26 @@ fn best_of(repeat: u32, mut pass: impl FnMut()) -> f64 {
             t.elapsed().as_secs_f64()
         })
         .fold(f64::INFINITY, f64::min)
+}
+
+/// `--packet` of `trace`: `auto` (`None`: each block's walk timed), or a
+/// width ([`Batch::width`](kdray_kernel::Batch::width)).
+#[derive(Clone, Copy, Debug)]
+struct Packets(Option<PacketWidth>);
+
+/// `--packet` of `trace`: `auto`, or a width ([`parse_width`]).
+fn parse_walk(s: &str) -> Result<Packets, String> {
+    match s {
+        "auto" => Ok(Packets(None)),
+        _ => parse_width(s)
+            .map(|w| Packets(Some(w)))
+            .map_err(|_| format!("{s:?} is not a packet width: use auto, 1, 4, 8 or 16")),
+    }
+}
+
+/// `--packet` in the JSON output: `"auto"`, or the width as a number.
+fn packet_json(packets: Packets) -> serde_json::Value {
+    packets.0.map_or("auto".into(), |w| w.lanes().into())
 }
 
 /// `--packet` (of `trace` and `render`): 1, 4, 8 or 16.

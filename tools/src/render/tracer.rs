@@ -39,7 +39,7 @@ impl Tracer for TreeTracer<'_, '_> {
             rays,
             hits,
             Batch {
-                width: self.width,
+                width: Some(self.width),
                 ..Batch::default()
             },
         );
@@ -49,7 +49,7 @@ impl Tracer for TreeTracer<'_, '_> {
             rays,
             out,
             Batch {
-                width: self.width,
+                width: Some(self.width),
                 ..Batch::default()
             },
         );

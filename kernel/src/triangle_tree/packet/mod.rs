@@ -124,15 +124,15 @@ impl<const N: usize> Packet<N> {
     }
 }
 
-/// How many rays a batch traces together ([`Batch::width`](crate::Batch::width)).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+/// How many rays a batch traces together, when the caller fixes it
+/// ([`Batch::width`](crate::Batch::width)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PacketWidth {
     /// Single rays.
     One,
     /// Packets of 4 (`f32x4`).
     Four,
-    /// Packets of 8 (`f32x8`), the default.
-    #[default]
+    /// Packets of 8 (`f32x8`).
     Eight,
     /// Packets of 16 (`f32x16`): one AVX-512 register per lane vector,
     /// where a node step costs about what it costs for 8 lanes and serves

@@ -6,7 +6,8 @@ use super::*;
 use crate::blob::Node;
 use crate::geometry::{Axis, Bounds};
 use crate::triangle::Triangle;
-use crate::triangle_tree::batch::scattered;
+use crate::triangle_tree::batch::{scattered, widest, AnyHit, ClosestHit, Plan};
+use crate::triangle_tree::walk_choice::{Trial, Walk, CLOCK};
 use crate::triangle_tree::Batch;
 
 use crate::test_rng::Rng;
@@ -220,7 +221,7 @@ fn slices_trace_every_ray_and_stop_at_the_shorter() {
             &rays,
             &mut hits,
             Batch {
-                width,
+                width: Some(width),
                 ..Batch::default()
             },
         );
@@ -229,7 +230,7 @@ fn slices_trace_every_ray_and_stop_at_the_shorter() {
             &rays,
             &mut occ,
             Batch {
-                width,
+                width: Some(width),
                 ..Batch::default()
             },
         );
@@ -286,7 +287,7 @@ fn answers(tree: &TriangleTree, rays: &[Ray]) -> ([u32; 4], [[u32; 4]; 2], u32) 
                 chunk,
                 &mut hits,
                 Batch {
-                    width,
+                    width: Some(width),
                     ..Batch::default()
                 },
             );
@@ -294,7 +295,7 @@ fn answers(tree: &TriangleTree, rays: &[Ray]) -> ([u32; 4], [[u32; 4]; 2], u32) 
                 chunk,
                 &mut occ,
                 Batch {
-                    width,
+                    width: Some(width),
                     ..Batch::default()
                 },
             );
@@ -362,7 +363,7 @@ fn dispatch_runs_the_detected_level() {
         &rays,
         &mut hits,
         Batch {
-            width: PacketWidth::Eight,
+            width: Some(PacketWidth::Eight),
             ..Batch::default()
         },
     );
@@ -411,4 +412,66 @@ fn rays_in_turns_equal_single_rays_bitwise() {
         ..r
     });
     assert!(!scattered(&fan, &BOUNDS));
+}
+
+#[test]
+fn batches_sort_blocks_into_kinds_time_them_and_every_walk_answers_alike() {
+    let mut rng = Rng(11);
+    let (nodes, prims, tris) = scene(&mut rng);
+    let tree = TriangleTree::from_parts(&nodes, &prims, &tris, BOUNDS).unwrap();
+    // Three blocks (the last partial) scattered, and the same rays from
+    // one origin.
+    let random: [Ray; 700] = core::array::from_fn(|i| random_ray(&mut rng, i % 5 == 0));
+    let fan = random.map(|r| Ray {
+        origin: [0.5, 0.5, 0.6],
+        ..r
+    });
+    assert!(scattered(&random[..256], &BOUNDS) && !scattered(&fan[..256], &BOUNDS));
+    let mut hits = [Hit::OCCLUDED; 700];
+    let mut occ = [false; 700];
+    for rays in [&random, &fan] {
+        // Each kind's first and second walk, and timed.
+        for trial in [Trial::First, Trial::Second, Trial::Timed] {
+            let batch = || Batch {
+                trial,
+                ..Batch::default()
+            };
+            tree.closest_hits(rays, &mut hits, batch());
+            tree.any_hits(rays, &mut occ, batch());
+            for (i, r) in rays.iter().enumerate() {
+                assert_eq!(
+                    hits[i].bits(),
+                    tree.closest_hit(r).bits(),
+                    "{trial:?} {r:?}"
+                );
+                assert_eq!(occ[i], tree.any_hit(r), "{trial:?} {r:?}");
+            }
+        }
+    }
+    // The candidates: coherent blocks packets or single rays; scattered
+    // ones single rays or (closest hit, x86-64) rays in turns, else packets.
+    let packets = Walk::Packets(widest());
+    let mut plan = Plan::new::<ClosestHit>(&Batch::default());
+    let any = Plan::new::<AnyHit>(&Batch::default());
+    assert_eq!(plan.coherent.walks, [packets, Walk::Single]);
+    assert_eq!(any.coherent.walks, [packets, Walk::Single]);
+    let in_turns = if cfg!(target_arch = "x86_64") {
+        Walk::InTurns
+    } else {
+        packets
+    };
+    assert_eq!(plan.scattered.walks, [Walk::Single, in_turns]);
+    assert_eq!(any.scattered.walks, [Walk::Single, packets]);
+    // Each kind's blocks timed apart: three blocks, three trials.
+    let round = if CLOCK { 3 } else { 0 };
+    tree.slice_with::<ClosestHit>(&mut plan, &random, &mut hits);
+    assert_eq!((plan.scattered.trials, plan.coherent.trials), (round, 0));
+    tree.slice_with::<ClosestHit>(&mut plan, &fan, &mut hits);
+    assert_eq!(
+        (plan.scattered.trials, plan.coherent.trials),
+        (round, round)
+    );
+    for (i, r) in fan.iter().enumerate() {
+        assert_eq!(hits[i].bits(), tree.closest_hit(r).bits(), "{r:?}");
+    }
 }

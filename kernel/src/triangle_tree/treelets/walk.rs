@@ -11,24 +11,16 @@ impl TriangleTree<'_> {
     /// `min(rays.len(), hits.len())` rays, for rays that share no cells
     /// (random rays, bounces): walked in turns, through the treelets where
     /// the tree has them and the processor AVX2, otherwise with the
-    /// one-plane walk (in turns on x86-64 when the tree outgrows the
-    /// cache). The batch calls take this path for the blocks of 256 rays
-    /// they find scattered. No allocation (the four walks in turns take
-    /// ~9 KiB of stack).
+    /// one-plane walk. The batch calls take this path for the blocks of
+    /// 256 rays they find scattered where their trials find it cheaper
+    /// than single rays (`walk_choice.rs`). No allocation (the four walks
+    /// in turns take ~9 KiB of stack).
     pub(crate) fn closest_hits_scattered(&self, rays: &[Ray], hits: &mut [Hit]) {
         #[cfg(target_arch = "x86_64")]
         if !self.lines.is_empty() && dispatch(TreeletWalks(self, rays, &mut *hits)) {
             return;
         }
-        if cfg!(target_arch = "x86_64")
-            && self.data_bytes() > crate::triangle_tree::batch::TURNS_MIN_BYTES
-        {
-            self.closest_hits_in_turns(rays, hits);
-        } else {
-            for (h, r) in hits.iter_mut().zip(rays) {
-                *h = self.closest_hit(r);
-            }
-        }
+        self.closest_hits_in_turns(rays, hits);
     }
 }
 

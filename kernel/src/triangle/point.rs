@@ -318,6 +318,12 @@ impl NearestTriangle {
     }
 
     /// Tests triangle `prim` and keeps it if it wins: brute force's rule.
+    ///
+    /// Tried a prefilter on the squared distance to the triangle's plane
+    /// (a lower bound, with slack): 4.6% more instructions on 20k points
+    /// within 1% of the bunny, because near a smooth surface the
+    /// neighbouring triangles' planes pass within the cut too (rejects
+    /// were rare, the cross product paid on every offer).
     #[inline(never)]
     pub(crate) fn offer(&mut self, tri: &Triangle, prim: u32) {
         let c = closest_on_triangle(&self.q, tri);

@@ -103,8 +103,6 @@ def cli_seconds(tree: kdray.TriangleTree, rays: np.ndarray) -> float | None:
                 Path(d) / "h",
                 "--threads",
                 "1",
-                "--packet",
-                "8",
                 "--json",
                 "--repeat",
                 "3",
@@ -151,7 +149,7 @@ def rays_rows(rows: list[tuple[str, float]], n: int, reps: int) -> None:
                 lambda: tm.ray.intersects_first(sub[:, :3], sub[:, 3:]),
             )
             rows.append((f"{short} {kind} cast_rays packet=1 vs Open3D, nthreads=1", s_o1 / s_kd1))
-            rows.append((f"{short} {kind} cast_rays (packet=8) vs Open3D, nthreads=1", s_o1 / s_kd8))
+            rows.append((f"{short} {kind} cast_rays (default packet=None) vs Open3D, nthreads=1", s_o1 / s_kd8))
             rows.append((f"{short} {kind} cast_rays vs Open3D, all cores", s_o / s_kd))
             rows.append(
                 (f"{short} {kind} cast_rays vs trimesh+embreex (1/10 of the rays)", s_tm / s_kd_s)
@@ -171,7 +169,7 @@ def rays_rows(rows: list[tuple[str, float]], n: int, reps: int) -> None:
             lambda: scene1.test_occlusions(t, tnear=tnear, tfar=tfar, nthreads=1),
         )
         rows.append((f"{short} shadow test_occlusions packet=1 vs Open3D, nthreads=1", s_o / s_kd))
-        rows.append((f"{short} shadow test_occlusions (packet=8) vs Open3D, nthreads=1", s_o / s_kd8))
+        rows.append((f"{short} shadow test_occlusions (default packet=None) vs Open3D, nthreads=1", s_o / s_kd8))
         one = rays[:1]
         t1 = o3d.core.Tensor(one)
         calls = 2000

@@ -33,7 +33,9 @@ pub struct KdrayClosestPoint {
 }
 
 impl KdrayClosestPoint {
-    fn of(c: Option<ClosestPoint>, q: &[f32; 3]) -> KdrayClosestPoint {
+    /// The record of `c`, the closest point to `q` (`None`: no point; the
+    /// distance is `inf`, or NaN for a query that is not finite).
+    pub(crate) fn of(c: Option<ClosestPoint>, q: &[f32; 3]) -> KdrayClosestPoint {
         match c {
             Some(c) => KdrayClosestPoint {
                 x: c.point[0],

@@ -1,10 +1,11 @@
 //! Distance queries on a scene: the closest point over the instances a
 //! mask selects, in world space, each answer naming its instance.
 
+use crate::distance::KdrayClosestPoint;
 use crate::handle::{self, KdrayScene};
 use crate::{check_count, check_ptr, status, KdrayStatus};
 use bytemuck::{Pod, Zeroable};
-use kdray_kernel::{Scene, SceneClosestPoint, MISS};
+use kdray_kernel::{ClosestPoint, Scene, SceneClosestPoint, MISS};
 
 /// A scene's closest point to a query: 40 bytes.
 ///
@@ -39,34 +40,35 @@ pub struct KdraySceneClosestPoint {
 }
 
 impl KdraySceneClosestPoint {
+    /// The tree's record of the same point (one rule for a missing
+    /// point), with the instance.
     fn of(c: Option<SceneClosestPoint>, q: &[f32; 3]) -> KdraySceneClosestPoint {
-        match c {
-            Some(c) => KdraySceneClosestPoint {
-                x: c.point[0],
-                y: c.point[1],
-                z: c.point[2],
-                prim_id: c.prim,
-                u: c.u,
-                v: c.v,
-                inst_id: c.instance,
-                reserved: 0,
-                distance2: c.distance2,
-            },
-            None => KdraySceneClosestPoint {
-                x: f32::NAN,
-                y: f32::NAN,
-                z: f32::NAN,
-                prim_id: MISS,
-                u: f32::NAN,
-                v: f32::NAN,
-                inst_id: MISS,
-                reserved: 0,
-                distance2: if q.iter().all(|c| c.is_finite()) {
-                    f64::INFINITY
-                } else {
-                    f64::NAN
-                },
-            },
+        let mesh = c.map(|c| ClosestPoint {
+            point: c.point,
+            prim: c.prim,
+            u: c.u,
+            v: c.v,
+            distance2: c.distance2,
+        });
+        let KdrayClosestPoint {
+            x,
+            y,
+            z,
+            prim_id,
+            u,
+            v,
+            distance2,
+        } = KdrayClosestPoint::of(mesh, q);
+        KdraySceneClosestPoint {
+            x,
+            y,
+            z,
+            prim_id,
+            u,
+            v,
+            inst_id: c.map_or(MISS, |c| c.instance),
+            reserved: 0,
+            distance2,
         }
     }
 }

@@ -5,7 +5,7 @@ use crate::distance::KdrayClosestPoint;
 use crate::handle::{self, KdrayScene};
 use crate::{check_count, check_ptr, status, KdrayStatus};
 use bytemuck::{Pod, Zeroable};
-use kdray_kernel::{ClosestPoint, Scene, SceneClosestPoint, MISS};
+use kdray_kernel::{Scene, SceneClosestPoint, MISS};
 
 /// A scene's closest point to a query: 40 bytes.
 ///
@@ -43,13 +43,6 @@ impl KdraySceneClosestPoint {
     /// The tree's record of the same point (one rule for a missing
     /// point), with the instance.
     fn of(c: Option<SceneClosestPoint>, q: &[f32; 3]) -> KdraySceneClosestPoint {
-        let mesh = c.map(|c| ClosestPoint {
-            point: c.point,
-            prim: c.prim,
-            u: c.u,
-            v: c.v,
-            distance2: c.distance2,
-        });
         let KdrayClosestPoint {
             x,
             y,
@@ -58,7 +51,7 @@ impl KdraySceneClosestPoint {
             u,
             v,
             distance2,
-        } = KdrayClosestPoint::of(mesh, q);
+        } = KdrayClosestPoint::of(c.map(|c| c.point_only()), q);
         KdraySceneClosestPoint {
             x,
             y,

@@ -7,6 +7,7 @@ use crate::distance::point_slice;
 use crate::held::{Held, HeldScene};
 use crate::pools;
 use crate::rays::{hit_lists, map_all, ray_slice, unit_normal};
+use crate::triangles::closest_brute_arrays;
 use kdray_kernel::{Instance, Scene as KernelScene, SceneClosestPoint, SceneHit, Triangle, MISS};
 use kdray_tools::distance::{scene_distance_records, SceneDistanceRecord};
 use kdray_tools::instances::transform_point;
@@ -302,39 +303,15 @@ impl Scene {
                     .collect::<Result<_, _>>()
             })
             .map_err(|e| PyValueError::new_err(format!("scene distance: {e}")))?;
+        let mesh: Vec<_> = found.iter().map(|c| c.map(|c| c.point_only())).collect();
+        let (points, primitive_ids, primitive_uvs, distance2) = closest_brute_arrays(py, &mesh)?;
+        let geometry_ids = found.iter().map(|c| c.map_or(MISS, |c| c.instance));
         Ok((
-            table(
-                py,
-                found
-                    .iter()
-                    .map(|c| c.map_or([f32::NAN; 3], |c| c.point))
-                    .collect(),
-            )?,
-            PyArray1::from_vec(
-                py,
-                found
-                    .iter()
-                    .map(|c| c.map_or(MISS, |c| c.instance))
-                    .collect(),
-            ),
-            PyArray1::from_vec(
-                py,
-                found.iter().map(|c| c.map_or(MISS, |c| c.prim)).collect(),
-            ),
-            table(
-                py,
-                found
-                    .iter()
-                    .map(|c| c.map_or([f32::NAN; 2], |c| [c.u, c.v]))
-                    .collect(),
-            )?,
-            PyArray1::from_vec(
-                py,
-                found
-                    .iter()
-                    .map(|c| c.map_or(f64::NAN, |c| c.distance2))
-                    .collect(),
-            ),
+            points,
+            PyArray1::from_vec(py, geometry_ids.collect()),
+            primitive_ids,
+            primitive_uvs,
+            distance2,
         ))
     }
 

@@ -346,31 +346,7 @@ impl TriangleTree {
                 .map(|q| closest_point_brute(tris, *q, f32::INFINITY))
                 .collect()
         });
-        let none = [f32::NAN; 3];
-        Ok((
-            table(
-                py,
-                found.iter().map(|c| c.map_or(none, |c| c.point)).collect(),
-            )?,
-            PyArray1::from_vec(
-                py,
-                found.iter().map(|c| c.map_or(MISS, |c| c.prim)).collect(),
-            ),
-            table(
-                py,
-                found
-                    .iter()
-                    .map(|c| c.map_or([f32::NAN; 2], |c| [c.u, c.v]))
-                    .collect(),
-            )?,
-            PyArray1::from_vec(
-                py,
-                found
-                    .iter()
-                    .map(|c| c.map_or(f64::NAN, |c| c.distance2))
-                    .collect(),
-            ),
-        ))
+        closest_brute_arrays(py, &found)
     }
 
     /// The oracle of `cast`: every triangle tested
@@ -420,12 +396,44 @@ impl TriangleTree {
 
 /// `(points, primitive_ids, primitive_uvs, distance2)` of
 /// `closest_points_brute`.
-type ClosestBrute<'py> = (
+pub(crate) type ClosestBrute<'py> = (
     Bound<'py, PyAny>,
     Bound<'py, PyArray1<u32>>,
     Bound<'py, PyAny>,
     Bound<'py, PyArray1<f64>>,
 );
+
+/// The arrays of [`ClosestBrute`] (a missing point: NaN, [`MISS`], NaN).
+pub(crate) fn closest_brute_arrays<'py>(
+    py: Python<'py>,
+    found: &[Option<ClosestPoint>],
+) -> PyResult<ClosestBrute<'py>> {
+    let none = [f32::NAN; 3];
+    Ok((
+        table(
+            py,
+            found.iter().map(|c| c.map_or(none, |c| c.point)).collect(),
+        )?,
+        PyArray1::from_vec(
+            py,
+            found.iter().map(|c| c.map_or(MISS, |c| c.prim)).collect(),
+        ),
+        table(
+            py,
+            found
+                .iter()
+                .map(|c| c.map_or([f32::NAN; 2], |c| [c.u, c.v]))
+                .collect(),
+        )?,
+        PyArray1::from_vec(
+            py,
+            found
+                .iter()
+                .map(|c| c.map_or(f64::NAN, |c| c.distance2))
+                .collect(),
+        ),
+    ))
+}
 
 /// `(ray_splits, t_hit, primitive_ids, primitive_uvs)` of `hits`.
 pub(crate) type HitArrays<'py> = (

@@ -85,6 +85,19 @@ impl SceneClosestPoint {
             self.distance2.to_bits(),
         ]
     }
+
+    /// The point, its triangle, weights and world squared distance, as a
+    /// tree's closest point reports them (without the instance).
+    #[must_use]
+    pub fn point_only(&self) -> ClosestPoint {
+        ClosestPoint {
+            point: self.point,
+            prim: self.prim,
+            u: self.u,
+            v: self.v,
+            distance2: self.distance2,
+        }
+    }
 }
 
 /// A selected instance whose transform is not a similarity (a non-uniform

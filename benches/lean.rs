@@ -6,22 +6,43 @@
 //! Not exact (it is the reference, not an answer): it also prints how many
 //! rays it answers differently, which should be a few in a million.
 //!
+//! The "tiles" row does the same for packets: camera rays in 4x2 pixel
+//! tiles, two consecutive tiles a packet of 16, walked by the lean loop
+//! once for all lanes (`lean/packet.rs`) beside kdray's packet path
+//! (`closest_hits` with `width: Some(PacketWidth::Sixteen)`). It is
+//! labelled with the lanes the lean walk takes: `tiles16` with AVX-512,
+//! `tiles8` with AVX2 only (kdray then takes 8 as well), none without.
+//!
 //! ```sh
 //! taskset -c 0 cargo bench --bench lean
+//! # the anchor's rays for the tiles row:
+//! KDRAY_BENCH_RAYS=/tmp/kdray-matrix taskset -c 0 cargo bench --bench lean
 //! # instructions a ray (one variant, one mesh, few rays):
 //! KDRAY_BENCH_CACHE=/tmp KDRAY_LEAN=lean KDRAY_LEAN_MESH=teapot KDRAY_LEAN_RAYS=16384 valgrind --tool=callgrind \
 //!   --collect-atstart=no --toggle-collect='*trace_rays*' target/release/deps/lean-*
+//! # the same for the packet walks: KDRAY_LEAN_SET=tiles, --toggle-collect='*trace_tiles*'
 //! ```
 //! `KDRAY_LEAN=lean|tree` runs only that walk, once, `KDRAY_LEAN_MESH` only that
 //! mesh (`stanford-bunny`, `teapot`, `sponza`), `KDRAY_LEAN_SET` only that ray set (`camera`,
-//! `random`), `KDRAY_LEAN_RAYS` sets the
-//! number of rays of each set (65536), `KDRAY_BENCH_CACHE` a folder to
-//! keep the built trees in.
+//! `random`, `tiles`), `KDRAY_LEAN_RAYS` sets the
+//! number of rays of each set (65536; it cuts an anchor file to that many),
+//! `KDRAY_LEAN_LANES=8` runs both packet walks 8 lanes wide,
+//! `KDRAY_BENCH_CACHE` a folder to keep the built trees in,
+//! `KDRAY_BENCH_RAYS` a folder of the Embree anchor's ray files for the
+//! tiles row (`rays-NAME/primary_tiled.rays`: `anchors/embree/rays.sh`;
+//! a scene without one takes tiles made here).
 
 mod common;
+#[cfg(target_arch = "x86_64")]
+#[path = "lean/lanes.rs"]
+mod lanes;
+#[cfg(target_arch = "x86_64")]
+#[path = "lean/packet.rs"]
+mod packet;
 
-use kdray::kernel::{Node, Ray, Triangle, TriangleTree};
+use kdray::kernel::{Batch, Hit, Node, PacketWidth, Ray, Triangle, TriangleTree};
 use kdray::tools::camera::{random_rays, Camera};
+use kdray::tools::render::{tile_size, tiled_pixels};
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -158,20 +179,64 @@ fn trace_rays_tree(tree: &TriangleTree, rays: &[Ray], out: &mut [(f32, u32)]) {
     }
 }
 
+/// kdray's packet path over the same rays: `closest_hits` in packets of
+/// `lanes` (16 or 8) consecutive rays.
+#[inline(never)]
+fn trace_tiles_tree(tree: &TriangleTree, rays: &[Ray], hits: &mut [Hit], lanes: usize) {
+    let width = if lanes == 8 {
+        PacketWidth::Eight
+    } else {
+        PacketWidth::Sixteen
+    };
+    let batch = Batch {
+        width: Some(width),
+        ..Batch::default()
+    };
+    tree.closest_hits(black_box(rays), hits, batch);
+}
+
+/// Nanoseconds a ray of the two walks `run(0, ..)` and `run(1, ..)` over
+/// `rays`, best of `rounds` interleaved rounds; `only` runs one of `labels`.
+fn best_of(
+    rays: &[Ray],
+    rounds: usize,
+    labels: [&str; 2],
+    only: Option<&str>,
+    mut run: impl FnMut(usize, &[Ray]),
+) -> [f64; 2] {
+    let mut best = [f64::INFINITY; 2];
+    for _round in 0..rounds {
+        for (k, label) in labels.iter().enumerate() {
+            if only.is_some_and(|o| o != *label) {
+                continue;
+            }
+            let t = Instant::now();
+            run(k, rays);
+            best[k] = best[k].min(t.elapsed().as_secs_f64() * 1e9 / rays.len() as f64);
+        }
+    }
+    best
+}
+
 fn main() {
     let only = std::env::var("KDRAY_LEAN").ok();
     let mesh = std::env::var("KDRAY_LEAN_MESH").ok();
     let set = std::env::var("KDRAY_LEAN_SET").ok();
-    let n: usize = std::env::var("KDRAY_LEAN_RAYS")
+    let count: Option<usize> = std::env::var("KDRAY_LEAN_RAYS")
         .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(65_536);
+        .and_then(|s| s.parse().ok());
+    let n = count.unwrap_or(65_536);
+    let lanes = match std::env::var("KDRAY_LEAN_LANES").ok().as_deref() {
+        Some("8") => 8,
+        _ => 16,
+    };
+    let rounds = if only.is_some() { 1 } else { 5 };
     let names: Vec<&str> = match &mesh {
         Some(m) => vec![m.as_str()],
         None => vec!["stanford-bunny", "teapot", "sponza"],
     };
     type Walk = fn(&TriangleTree, &[Ray], &mut [(f32, u32)]);
-    let walks: [(&str, Walk); 2] = [("lean", trace_rays_lean), ("tree", trace_rays_tree)];
+    let walks: [Walk; 2] = [trace_rays_lean, trace_rays_tree];
     println!(
         "{:<16} {:<7} {:>10} {:>10} {:>7} {:>9}",
         "mesh", "rays", "lean ns", "tree ns", "ratio", "differ"
@@ -183,8 +248,9 @@ fn main() {
         let blob = common::tree_blob(&name, &tris);
         let tree = blob.tree().unwrap();
         let side = (n as f64).sqrt() as u32;
+        let camera = Camera::framing(&focus);
         let sets: [(&str, Vec<Ray>); 2] = [
-            ("camera", Camera::framing(&focus).rays(side, side)),
+            ("camera", camera.rays(side, side)),
             ("random", random_rays(&tree.bounds(), n, 1)),
         ];
         for (kind, rays) in &sets {
@@ -195,31 +261,91 @@ fn main() {
                 vec![(0.0f32, 0u32); rays.len()],
                 vec![(0.0f32, 0u32); rays.len()],
             ];
-            let mut best = [f64::INFINITY; 2];
-            for _round in 0..if only.is_some() { 1 } else { 5 } {
-                for (k, (label, walk)) in walks.iter().enumerate() {
-                    if only.as_deref().is_some_and(|o| o != *label) {
-                        continue;
-                    }
-                    let t = Instant::now();
-                    walk(&tree, rays, &mut out[k]);
-                    best[k] = best[k].min(t.elapsed().as_secs_f64() * 1e9 / rays.len() as f64);
-                }
-            }
+            let best = best_of(rays, rounds, ["lean", "tree"], only.as_deref(), |k, r| {
+                walks[k](&tree, r, &mut out[k]);
+            });
             let differ = out[0]
                 .iter()
                 .zip(&out[1])
                 .filter(|(a, b)| a.1 != b.1)
                 .count();
-            println!(
-                "{:<16} {:<7} {:>10.1} {:>10.1} {:>7.2} {:>9}",
-                name,
-                kind,
-                best[0],
-                best[1],
-                best[1] / best[0],
-                differ
+            print_row(&name, kind, best, differ);
+        }
+        if set.as_deref().is_none_or(|s| s == "tiles") {
+            #[cfg(target_arch = "x86_64")]
+            tiles_row(
+                &name,
+                &tree,
+                &camera,
+                side,
+                count,
+                lanes,
+                rounds,
+                only.as_deref(),
             );
         }
     }
+}
+
+/// The "tiles" row: camera rays in 4x2 tiles, two tiles a packet of 16
+/// (the anchor's file when given, else `side` x `side` made here), the
+/// lean packet walk against kdray's packet path, each `lanes` wide.
+#[cfg(target_arch = "x86_64")]
+#[allow(clippy::too_many_arguments)]
+fn tiles_row(
+    name: &str,
+    tree: &TriangleTree,
+    camera: &Camera,
+    side: u32,
+    count: Option<usize>,
+    lanes: usize,
+    rounds: usize,
+    only: Option<&str>,
+) {
+    let Some(here) = packet::lanes_here(lanes) else {
+        eprintln!("{name} tiles skipped: the lean packet walk needs AVX2");
+        return;
+    };
+    let tiles = match common::anchor_rays(name, "primary_tiled") {
+        Some(mut rays) => {
+            rays.truncate(count.unwrap_or(rays.len()));
+            rays
+        }
+        None => {
+            let side = side & !3;
+            tiled_pixels(side, side, tile_size(PacketWidth::Eight))
+                .iter()
+                .map(|&[x, y]| camera.ray(x, y, side, side))
+                .collect()
+        }
+    };
+    let mut lean = vec![(0.0f32, 0u32); tiles.len()];
+    let mut hits = vec![Hit::MISS; tiles.len()];
+    let best = best_of(&tiles, rounds, ["lean", "tree"], only, |k, r| {
+        if k == 0 {
+            packet::trace_tiles_lean(tree, r, &mut lean, lanes);
+        } else {
+            trace_tiles_tree(tree, r, &mut hits, lanes);
+        }
+    });
+    let differ = lean
+        .iter()
+        .zip(&hits)
+        .filter(|(a, h)| a.1 != h.prim)
+        .count();
+    print_row(name, &format!("tiles{here}"), best, differ);
+}
+
+/// One row: the two walks' nanoseconds a ray, their ratio, how many rays
+/// they answer differently.
+fn print_row(name: &str, kind: &str, best: [f64; 2], differ: usize) {
+    println!(
+        "{:<16} {:<7} {:>10.1} {:>10.1} {:>7.2} {:>9}",
+        name,
+        kind,
+        best[0],
+        best[1],
+        best[1] / best[0],
+        differ
+    );
 }

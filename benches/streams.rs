@@ -18,8 +18,6 @@ mod common;
 
 use kdray::kernel::{Batch, Hit, Ray, Streams, TriangleTree, STREAM_SCRATCH_WORDS};
 use kdray::tools::camera::{random_rays, Camera};
-use kdray::tools::io::read_records;
-use std::path::PathBuf;
 use std::time::Instant;
 
 /// Closest hits (`hits`) or any hits (`occ`) of `rays` by one walk.
@@ -113,14 +111,13 @@ fn main() {
         let tree = blob.tree().unwrap();
         // The anchors' ray files when given (`rays.sh` folders), else
         // 65536 camera and random rays made here.
-        let files = std::env::var("KDRAY_BENCH_RAYS").ok().map(|d| {
-            let at = |f: &str| PathBuf::from(&d).join(format!("rays-{name}/{f}.rays"));
-            let read = |f: &str| read_records::<Ray>(&at(f), "rays").expect("a ray file");
-            (read("primary"), read("random"))
-        });
+        let files = (
+            common::anchor_rays(&name, "primary"),
+            common::anchor_rays(&name, "random"),
+        );
         let sets: [(&str, Vec<Ray>); 2] = match files {
-            Some((camera, random)) => [("camera", camera), ("random", random)],
-            None => [
+            (Some(camera), Some(random)) => [("camera", camera), ("random", random)],
+            _ => [
                 ("camera", Camera::framing(&focus).rays(256, 256)),
                 ("random", random_rays(&tree.bounds(), 65_536, 1)),
             ],

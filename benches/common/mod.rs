@@ -1,8 +1,9 @@
 //! What the benches share: the scenes they trace.
 
-use kdray::kernel::{Bounds, Triangle};
+use kdray::kernel::{Bounds, Ray, Triangle};
 use kdray::tools::blob::{write_triangle_tree, Blob};
 use kdray::tools::builders::{build, BuildParams, BuilderKind};
+use kdray::tools::io::read_records;
 use kdray::tools::{demo_scene, mesh};
 use std::path::PathBuf;
 
@@ -44,4 +45,21 @@ pub(crate) fn tree_blob(name: &str, tris: &[Triangle]) -> Blob {
         std::fs::write(p, b.as_bytes()).expect("the cache folder is writable");
     }
     b
+}
+
+/// The Embree anchor's ray file `rays-NAME/FILE.rays` in the folder named
+/// by `KDRAY_BENCH_RAYS` (`anchors/embree/rays.sh` writes them), `None`
+/// when it is unset or has no such file (the scenes made here).
+#[allow(dead_code)] // not every bench reads the anchor's rays
+pub(crate) fn anchor_rays(name: &str, file: &str) -> Option<Vec<Ray>> {
+    let dir = std::env::var("KDRAY_BENCH_RAYS").ok()?;
+    let at = PathBuf::from(dir).join(format!("rays-{name}/{file}.rays"));
+    if !at.exists() {
+        eprintln!(
+            "{}: no such file, {name} takes rays made here",
+            at.display()
+        );
+        return None;
+    }
+    Some(read_records::<Ray>(&at, "rays").expect("a ray file"))
 }

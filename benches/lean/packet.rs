@@ -91,15 +91,16 @@ fn moller_trumbore_lanes<V: Lanes<N>, const N: usize>(
     }
 }
 
-/// The closest hit of each ray of a coherent packet of `N` (`(t,
-/// triangle)`, `u32::MAX` for none) into `out`.
+/// The closest hit of each ray of a packet of `N` (`(t, triangle)`,
+/// `u32::MAX` for none) into `out`; `false` (nothing written) when its
+/// rays disagree on a direction sign.
 #[inline(always)]
 fn lean_packet<V: Lanes<N>, const N: usize>(
     tree: &TriangleTree,
     rays: &[Ray],
     stack: &mut [Pending<V>; DEPTH],
     out: &mut [(f32, u32)],
-) {
+) -> bool {
     let (nodes, prims, tris, b) = (
         tree.nodes(),
         tree.prim_indices(),
@@ -119,6 +120,17 @@ fn lean_packet<V: Lanes<N>, const N: usize>(
     let (tmin, tmax): (V, V) = (column(rays, |r| r.tmin), column(rays, |r| r.tmax));
     let one = V::splat(1.0);
     let inv = [one.div(dir[0]), one.div(dir[1]), one.div(dir[2])];
+    // One near child for every lane only when the lanes share their
+    // signs: the single walk's `above_first`, from any lane.
+    let all = u32::MAX >> (32 - N);
+    let mut above_first = [0usize; 3];
+    for (a, i) in above_first.iter_mut().zip(&inv) {
+        match i.lt(V::splat(0.0)) {
+            0 => *a = 0,
+            m if m == all => *a = 1,
+            _ => return false,
+        }
+    }
     // Clip each lane to the scene box (slab test).
     let (mut lo, mut hi) = (tmin, tmax);
     for (a, (o, i)) in org.iter().zip(&inv).enumerate() {
@@ -132,9 +144,7 @@ fn lean_packet<V: Lanes<N>, const N: usize>(
         prim: V::splat(f32::from_bits(u32::MAX)),
     };
     // Lanes still searching.
-    let mut alive = (u32::MAX >> (32 - N)) & !hi.lt(lo);
-    // One near child for every lane: the packet shares its signs.
-    let above_first = rays[0].dir.map(|d| usize::from(1.0 / d < 0.0));
+    let mut alive = all & !hi.lt(lo);
     let (mut lanes, mut node, mut sp) = (alive, nodes[0], 0);
     'walk: while alive != 0 {
         let axis = node.axis_bits();
@@ -206,13 +216,7 @@ fn lean_packet<V: Lanes<N>, const N: usize>(
     for (o, (t, p)) in out.iter_mut().zip(t.iter().zip(&prim)) {
         *o = (*t, p.to_bits());
     }
-}
-
-/// Whether the rays agree on every direction sign (then one child is near
-/// for all of them).
-fn coherent(rays: &[Ray]) -> bool {
-    let signs = |r: &Ray| r.dir.map(|d| 1.0 / d < 0.0);
-    rays.iter().all(|r| signs(r) == signs(&rays[0]))
+    true
 }
 
 /// Every ray of `rays` in packets of `N` consecutive rays; the rays of an
@@ -234,9 +238,7 @@ fn lean_packets<V: Lanes<N>, const N: usize>(
     let mut single = [(0u32, 0.0f32, 0.0f32); 64];
     for (rs, os) in rays.chunks(N).zip(out.chunks_mut(N)) {
         let rs = black_box(rs);
-        if rs.len() == N && coherent(rs) {
-            lean_packet::<V, N>(tree, rs, &mut stack, os);
-        } else {
+        if rs.len() != N || !lean_packet::<V, N>(tree, rs, &mut stack, os) {
             for (o, r) in os.iter_mut().zip(rs) {
                 *o = lean_closest(tree, r, &mut single);
             }

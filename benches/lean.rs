@@ -6,6 +6,14 @@
 //! Not exact (it is the reference, not an answer): it also prints how many
 //! rays it answers differently, which should be a few in a million.
 //!
+//! The "warm" columns are each walk's floor without memory: every ray
+//! walked twice in a row, the second walk's time (the twice-walked run's
+//! less the once-walked one's). The second walk finds every node pair,
+//! index and triangle it reads in L1 and its branches just taken, so the
+//! floor is optimistic: no schedule that hides the misses of these walks
+//! (rays in turns, prefetches, streams of rays that share few nodes)
+//! takes a ray below it.
+//!
 //! The "tiles" row does the same for packets: camera rays in 4x2 pixel
 //! tiles, two consecutive tiles a packet of 16, walked by the lean loop
 //! once for all lanes (`lean/packet.rs`) beside kdray's packet path
@@ -22,15 +30,16 @@
 //!   --collect-atstart=no --toggle-collect='*trace_rays*' target/release/deps/lean-*
 //! # the same for the packet walks: KDRAY_LEAN_SET=tiles, --toggle-collect='*trace_tiles*'
 //! ```
-//! `KDRAY_LEAN=lean|tree` runs only that walk, once, `KDRAY_LEAN_MESH` only that
+//! `KDRAY_LEAN=lean|tree` runs only that walk, once (`lean warm`, `tree
+//! warm`: its twice-walked run), `KDRAY_LEAN_MESH` only that
 //! mesh (`stanford-bunny`, `teapot`, `sponza`), `KDRAY_LEAN_SET` only that ray set (`camera`,
 //! `random`, `tiles`), `KDRAY_LEAN_RAYS` sets the
 //! number of rays of each set (65536; it cuts an anchor file to that many),
 //! `KDRAY_LEAN_LANES=8` runs both packet walks 8 lanes wide,
 //! `KDRAY_BENCH_CACHE` a folder to keep the built trees in,
 //! `KDRAY_BENCH_RAYS` a folder of the Embree anchor's ray files for the
-//! tiles row (`rays-NAME/primary_tiled.rays`: `anchors/embree/rays.sh`;
-//! a scene without one takes tiles made here).
+//! random and tiles rows (`rays-NAME/random.rays`, `primary_tiled.rays`:
+//! `anchors/embree/rays.sh`; a scene without them takes rays made here).
 
 mod common;
 #[cfg(target_arch = "x86_64")]
@@ -160,22 +169,27 @@ fn lean_closest(tree: &TriangleTree, ray: &Ray, stack: &mut [(u32, f32, f32); 64
     }
 }
 
-/// The walk a measurement runs: each ray's answer into `out`.
+/// The walk a measurement runs: each ray's answer into `out`, each ray
+/// walked `TIMES` times in a row (2: the warm columns).
 #[inline(never)]
-fn trace_rays_lean(tree: &TriangleTree, rays: &[Ray], out: &mut [(f32, u32)]) {
+fn trace_rays_lean<const TIMES: usize>(tree: &TriangleTree, rays: &[Ray], out: &mut [(f32, u32)]) {
     // One stack for all rays: no zeroing per ray.
     let mut stack = [(0u32, 0.0f32, 0.0f32); 64];
     for (o, r) in out.iter_mut().zip(rays) {
-        *o = lean_closest(tree, black_box(r), &mut stack);
+        for _ in 0..TIMES {
+            *o = lean_closest(tree, black_box(r), &mut stack);
+        }
     }
 }
 
-/// `closest_hit` over the same rays.
+/// `closest_hit` over the same rays, as [`trace_rays_lean`].
 #[inline(never)]
-fn trace_rays_tree(tree: &TriangleTree, rays: &[Ray], out: &mut [(f32, u32)]) {
+fn trace_rays_tree<const TIMES: usize>(tree: &TriangleTree, rays: &[Ray], out: &mut [(f32, u32)]) {
     for (o, r) in out.iter_mut().zip(rays) {
-        let h = tree.closest_hit(black_box(r));
-        *o = (h.t, h.prim);
+        for _ in 0..TIMES {
+            let h = tree.closest_hit(black_box(r));
+            *o = (h.t, h.prim);
+        }
     }
 }
 
@@ -195,16 +209,17 @@ fn trace_tiles_tree(tree: &TriangleTree, rays: &[Ray], hits: &mut [Hit], lanes: 
     tree.closest_hits(black_box(rays), hits, batch);
 }
 
-/// Nanoseconds a ray of the two walks `run(0, ..)` and `run(1, ..)` over
-/// `rays`, best of `rounds` interleaved rounds; `only` runs one of `labels`.
-fn best_of(
+/// Nanoseconds a ray of the `K` walks `run(0, ..)`, `run(1, ..)`, ... over
+/// `rays`, best of `rounds` interleaved rounds; `only` runs the walks
+/// labelled so.
+fn best_of<const K: usize>(
     rays: &[Ray],
     rounds: usize,
-    labels: [&str; 2],
+    labels: [&str; K],
     only: Option<&str>,
     mut run: impl FnMut(usize, &[Ray]),
-) -> [f64; 2] {
-    let mut best = [f64::INFINITY; 2];
+) -> [f64; K] {
+    let mut best = [f64::INFINITY; K];
     for _round in 0..rounds {
         for (k, label) in labels.iter().enumerate() {
             if only.is_some_and(|o| o != *label) {
@@ -236,10 +251,15 @@ fn main() {
         None => vec!["stanford-bunny", "teapot", "sponza"],
     };
     type Walk = fn(&TriangleTree, &[Ray], &mut [(f32, u32)]);
-    let walks: [Walk; 2] = [trace_rays_lean, trace_rays_tree];
+    let walks: [Walk; 4] = [
+        trace_rays_lean::<1>,
+        trace_rays_tree::<1>,
+        trace_rays_lean::<2>,
+        trace_rays_tree::<2>,
+    ];
     println!(
-        "{:<16} {:<7} {:>10} {:>10} {:>7} {:>9}",
-        "mesh", "rays", "lean ns", "tree ns", "ratio", "differ"
+        "{:<16} {:<7} {:>10} {:>10} {:>7} {:>9} {:>10} {:>10}",
+        "mesh", "rays", "lean ns", "tree ns", "ratio", "differ", "lean warm", "tree warm"
     );
     for (name, tris, focus) in common::scenes(&names) {
         if mesh.as_deref().is_some_and(|m| m != name) {
@@ -251,17 +271,25 @@ fn main() {
         let camera = Camera::framing(&focus);
         let sets: [(&str, Vec<Ray>); 2] = [
             ("camera", camera.rays(side, side)),
-            ("random", random_rays(&tree.bounds(), n, 1)),
+            (
+                "random",
+                match common::anchor_rays(&name, "random") {
+                    Some(mut rays) => {
+                        rays.truncate(count.unwrap_or(rays.len()));
+                        rays
+                    }
+                    None => random_rays(&tree.bounds(), n, 1),
+                },
+            ),
         ];
         for (kind, rays) in &sets {
             if set.as_deref().is_some_and(|s| s != *kind) {
                 continue;
             }
-            let mut out = [
-                vec![(0.0f32, 0u32); rays.len()],
-                vec![(0.0f32, 0u32); rays.len()],
-            ];
-            let best = best_of(rays, rounds, ["lean", "tree"], only.as_deref(), |k, r| {
+            let mut out: [Vec<(f32, u32)>; 4] =
+                core::array::from_fn(|_| vec![(0.0, 0); rays.len()]);
+            let labels = ["lean", "tree", "lean warm", "tree warm"];
+            let best = best_of(rays, rounds, labels, only.as_deref(), |k, r| {
                 walks[k](&tree, r, &mut out[k]);
             });
             let differ = out[0]
@@ -269,7 +297,8 @@ fn main() {
                 .zip(&out[1])
                 .filter(|(a, b)| a.1 != b.1)
                 .count();
-            print_row(&name, kind, best, differ);
+            let warm = [best[2] - best[0], best[3] - best[1]];
+            print_row(&name, kind, [best[0], best[1]], differ, Some(warm));
         }
         if set.as_deref().is_none_or(|s| s == "tiles") {
             #[cfg(target_arch = "x86_64")]
@@ -333,14 +362,18 @@ fn tiles_row(
         .zip(&hits)
         .filter(|(a, h)| a.1 != h.prim)
         .count();
-    print_row(name, &format!("tiles{here}"), best, differ);
+    print_row(name, &format!("tiles{here}"), best, differ, None);
 }
 
 /// One row: the two walks' nanoseconds a ray, their ratio, how many rays
-/// they answer differently.
-fn print_row(name: &str, kind: &str, best: [f64; 2], differ: usize) {
+/// they answer differently, and their warm floors where measured.
+fn print_row(name: &str, kind: &str, best: [f64; 2], differ: usize, warm: Option<[f64; 2]>) {
+    // A walk left out (`KDRAY_LEAN`) has no floor.
+    let warm = warm
+        .filter(|w| w.iter().all(|x| x.is_finite()))
+        .map_or(String::new(), |[l, t]| format!(" {l:>10.1} {t:>10.1}"));
     println!(
-        "{:<16} {:<7} {:>10.1} {:>10.1} {:>7.2} {:>9}",
+        "{:<16} {:<7} {:>10.1} {:>10.1} {:>7.2} {:>9}{warm}",
         name,
         kind,
         best[0],

@@ -81,8 +81,19 @@ pub fn read_records<T: Pod>(path: &Path, what: &str) -> Result<Vec<T>, RecordFil
         }
     };
     let oom = |e: crate::memory::OutOfMemory| err(e.to_string());
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt as _;
+        // A character device may never end (`/dev/zero`): reading it
+        // would fill the memory, not fail.
+        if meta.file_type().is_char_device() {
+            return Err(err(format!(
+                "is a character device (such as /dev/zero or a terminal), not a file of {what} records: give a file or a pipe"
+            )));
+        }
+    }
     if !meta.is_file() {
-        // A pipe or device: its length is known only at its end.
+        // A pipe or a block device: its length is known only at its end.
         let mut bytes = Vec::new();
         file.read_to_end(&mut bytes)
             .map_err(|e| err(format!("cannot read: {e}")))?;

@@ -1826,6 +1826,13 @@ fn a_new_users_slips_are_named() {
         &["trace", &tree, &tree, "-o", &hits],
         "q.kdt: this is a kdray tree blob, not a file of ray records",
     );
+    // A device that never ends is refused, not read until memory runs out.
+    if Path::new("/dev/zero").exists() {
+        refused(
+            &["trace", &tree, "/dev/zero", "-o", &hits],
+            "/dev/zero: is a character device (such as /dev/zero or a terminal), not a file of ray records",
+        );
+    }
     // A GLB header whose length is shorter than the header (inside the
     // gltf crate, a subtraction that panicked in debug builds).
     let mut glb = b"glTF".to_vec();

@@ -295,6 +295,33 @@ fn misaligned_input_is_refused_not_copied() {
 }
 
 #[test]
+fn an_empty_or_short_blob_is_truncated_wherever_it_lies() {
+    // An empty slice's address is a dangling 1: the error is its length,
+    // not its alignment, for every kind of blob.
+    let truncated = |have| BlobError::Truncated {
+        what: "header",
+        need: 64,
+        have,
+    };
+    let empty: &[u8] = &[];
+    assert_eq!(TriangleTree::from_bytes(empty).unwrap_err(), truncated(0));
+    assert_eq!(
+        kdray::kernel::PointTreeN::<3, f64>::from_bytes(empty).unwrap_err(),
+        truncated(0)
+    );
+    assert_eq!(
+        kdray::kernel::Scene::from_bytes(empty).unwrap_err(),
+        kdray::kernel::SceneError::Blob(truncated(0))
+    );
+    let words = [0u32; 4];
+    let bytes: &[u8] = bytemuck::cast_slice(&words);
+    assert_eq!(
+        TriangleTree::from_bytes(&bytes[1..]).unwrap_err(),
+        truncated(15)
+    );
+}
+
+#[test]
 fn crafted_structures_get_the_right_error() {
     // A cycle: the root's children point back at the root.
     assert_eq!(

@@ -19,6 +19,7 @@ pickle as their blob, validated when they come back.
 
 from __future__ import annotations
 
+import operator
 import os
 import pickle
 from collections.abc import Sequence
@@ -97,8 +98,21 @@ def _options(
     }
 
 
+def _whole(value: Any, name: str) -> int:
+    """``value`` as an int that fits the extension's 64-bit counts, or an
+    error naming ``name`` (not a truncated float, not an ``OverflowError``
+    from inside the extension)."""
+    try:
+        n = operator.index(value)
+    except TypeError:
+        raise TypeError(f"{name} must be an integer, not {value!r}") from None
+    if n >= 2**63:
+        raise ValueError(f"{name} {n} is more than any machine's threads")
+    return n
+
+
 def _nthreads(nthreads: int) -> int:
-    n = int(nthreads)
+    n = _whole(nthreads, "nthreads")
     if n < 0:
         raise ValueError(f"nthreads must be 0 (all cores) or more, not {nthreads}")
     return n
@@ -808,7 +822,7 @@ class KDTree(_Blob):
 
 def _workers(workers: int) -> int:
     """scipy's ``workers`` (-1: all cores) as a thread count (0: all cores)."""
-    w = int(workers)
+    w = _whole(workers, "workers")
     if w == -1:
         return 0
     if w < 1:

@@ -12,10 +12,6 @@ use std::sync::{Arc, Mutex};
 /// Pools by thread count.
 static POOLS: Mutex<Option<HashMap<usize, Arc<ThreadPool>>>> = Mutex::new(None);
 
-/// The most threads a pool may have: more than any machine's cores and
-/// few enough that a typo does not start a million threads.
-const MAX_THREADS: usize = 1024;
-
 /// Runs `f`, the work of `items` queries, on the calling thread when they
 /// are at most [`SERIAL_QUERIES`] (the tools' batch calls answer so few
 /// there too, and the hand-off to a pool would cost more than they do),
@@ -32,14 +28,10 @@ pub(crate) fn install_sized<R: Send>(
     install(threads, f)
 }
 
-/// Refuses a thread count above [`MAX_THREADS`], whatever the batch.
+/// Refuses a thread count above the tools' `MAX_THREADS`, whatever the
+/// batch.
 fn check(threads: usize) -> PyResult<()> {
-    if threads > MAX_THREADS {
-        return Err(PyValueError::new_err(format!(
-            "nthreads / workers: {threads} is more than {MAX_THREADS}"
-        )));
-    }
-    Ok(())
+    kdray_tools::threads::check_count("nthreads / workers", threads).map_err(PyValueError::new_err)
 }
 
 /// Runs `f` on `threads` threads (0: the global pool, all cores).

@@ -33,7 +33,8 @@ pub(crate) struct BuildOptions {
 }
 
 impl BuildOptions {
-    /// The builder and its parameters, checked as `kdray build` checks them.
+    /// The builder and its parameters, checked by the tools' own
+    /// [`BuildParams::check`], as `kdray build` checks them.
     pub(crate) fn params(&self) -> PyResult<(BuilderKind, BuildParams)> {
         let kind = BuilderKind::parse(&self.builder)
             .map_err(|e| PyValueError::new_err(format!("builder: {e}")))?;
@@ -46,22 +47,9 @@ impl BuildOptions {
             max_depth: self.max_depth.or(d.max_depth),
             ..d
         };
-        for (name, v) in [
-            ("traversal_cost", params.traversal_cost),
-            ("intersection_cost", params.intersection_cost),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(PyValueError::new_err(format!(
-                    "{name} must be a positive number, not {v}"
-                )));
-            }
-        }
-        if !(0.0..1.0).contains(&params.empty_bonus) {
-            return Err(PyValueError::new_err(format!(
-                "empty_bonus must be in [0, 1), not {}",
-                params.empty_bonus
-            )));
-        }
+        params
+            .check(str::to_string)
+            .map_err(PyValueError::new_err)?;
         Ok((kind, params))
     }
 }

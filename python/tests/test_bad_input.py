@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import struct
+import tempfile
 from collections.abc import Callable
 from typing import Any
 
@@ -19,6 +21,14 @@ TREE = kdray.TriangleTree(V, F)
 PTS = np.random.default_rng(0).random((300, 3))
 KD = kdray.KDTree(PTS)
 
+
+def _short_glb() -> str:
+    """A GLB whose header's length is shorter than the header itself."""
+    with tempfile.NamedTemporaryFile(suffix=".glb", delete=False) as f:
+        f.write(b"glTF" + struct.pack("<II", 2, 4) + bytes(20))
+    return f.name
+
+
 BAD: list[tuple[str, Callable[[], Any], type[BaseException], str]] = [
     ("vertices 2-D (V, 2)", lambda: kdray.TriangleTree(V[:, :2], F), ValueError, "vertices"),
     ("vertices 1-D", lambda: kdray.TriangleTree(V.ravel(), F), ValueError, "vertices"),
@@ -35,6 +45,10 @@ BAD: list[tuple[str, Callable[[], Any], type[BaseException], str]] = [
     ("builder unknown", lambda: kdray.TriangleTree(V, F, builder="bvh"), ValueError, "builder"),
     ("traversal_cost 0", lambda: kdray.TriangleTree(V, F, traversal_cost=0), ValueError, "traversal_cost"),
     ("empty_bonus 1", lambda: kdray.TriangleTree(V, F, empty_bonus=1.0), ValueError, "empty_bonus"),
+    ("max_depth past the stack", lambda: kdray.TriangleTree(V, F, max_depth=65), ValueError, "max_depth 65 is more than 64"),
+    ("threads huge", lambda: kdray.TriangleTree(V, F, threads=10**6), ValueError, "threads 1000000 is more than 1024"),
+    ("blob empty is truncated", lambda: kdray.TriangleTree.from_bytes(b""), kdray.BlobError, "truncated in the header.*has 0"),
+    ("GLB cut short", lambda: kdray.TriangleTree.from_file(_short_glb()), ValueError, "GLB header's length"),
     ("mesh file missing", lambda: kdray.TriangleTree.from_file("/nonexistent.obj"), ValueError, "nonexistent"),
     ("rays (N, 5)", lambda: TREE.cast_rays(np.zeros((3, 5))), ValueError, "rays"),
     ("rays complex", lambda: TREE.cast_rays(np.zeros((3, 6), complex)), ValueError, "rays"),
@@ -44,6 +58,9 @@ BAD: list[tuple[str, Callable[[], Any], type[BaseException], str]] = [
     ("tfar shape", lambda: TREE.test_occlusions(np.zeros((3, 6)), tfar=np.ones(4)), ValueError, "tfar"),
     ("nthreads negative", lambda: TREE.cast_rays(np.zeros((3, 6)), nthreads=-2), ValueError, "nthreads"),
     ("nthreads huge", lambda: TREE.cast_rays(np.zeros((3000, 6)), nthreads=10**6), ValueError, "nthreads"),
+    ("nthreads past 64 bits", lambda: TREE.cast_rays(np.zeros((3, 6)), nthreads=2**70), ValueError, "nthreads 1180591620717411303424 is more than"),
+    ("nthreads float", lambda: TREE.compute_distance(np.zeros((3, 3)), nthreads=1.5), TypeError, "nthreads must be an integer, not 1.5"),
+    ("workers past 64 bits", lambda: KD.query(PTS[:2], workers=2**64), ValueError, "workers 18446744073709551616 is more than"),
     ("packet 3", lambda: TREE.cast_rays(np.zeros((3, 6)), packet=3), ValueError, "packet"),
     ("blob empty", lambda: kdray.TriangleTree.from_bytes(b""), kdray.BlobError, "buffer"),
     ("blob truncated", lambda: kdray.TriangleTree.from_bytes(TREE.to_bytes()[:-4]), kdray.BlobError, "buffer"),

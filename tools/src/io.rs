@@ -47,9 +47,10 @@ impl std::error::Error for RecordFileError {}
 /// Reads a file of `T` records (`what` names them in errors: "ray").
 ///
 /// # Errors
-/// The file cannot be read, or its size is not a multiple of the record size.
+/// The file cannot be read, is a kdray tree blob (starts with its magic),
+/// or its size is not a multiple of the record size.
 pub fn read_records<T: Pod>(path: &Path, what: &str) -> Result<Vec<T>, RecordFileError> {
-    use std::io::Read as _;
+    use std::io::{Read as _, Seek as _};
     let err = |message: String| RecordFileError::new(path, message);
     let mut file = File::open(path).map_err(|e| err(format!("cannot read: {e}")))?;
     let meta = file
@@ -67,12 +68,36 @@ pub fn read_records<T: Pod>(path: &Path, what: &str) -> Result<Vec<T>, RecordFil
             )))
         }
     };
+    // A tree blob passed where its source records go (`kdray knn
+    // cloud.kdt ...`) would otherwise be read as records, or refused only
+    // for its size.
+    let not_a_blob = |start: &[u8]| {
+        if start.starts_with(&kdray_kernel::format::wire::MAGIC) {
+            Err(err(format!(
+                "this is a kdray tree blob, not a file of {what} records (docs/formats.md)"
+            )))
+        } else {
+            Ok(())
+        }
+    };
     let oom = |e: crate::memory::OutOfMemory| err(e.to_string());
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt as _;
+        // A character device may never end (`/dev/zero`): reading it
+        // would fill the memory, not fail.
+        if meta.file_type().is_char_device() {
+            return Err(err(format!(
+                "is a character device (such as /dev/zero or a terminal), not a file of {what} records: give a file or a pipe"
+            )));
+        }
+    }
     if !meta.is_file() {
-        // A pipe or device: its length is known only at its end.
+        // A pipe or a block device: its length is known only at its end.
         let mut bytes = Vec::new();
         file.read_to_end(&mut bytes)
             .map_err(|e| err(format!("cannot read: {e}")))?;
+        not_a_blob(&bytes)?;
         let n = whole(bytes.len())?;
         let mut out =
             crate::memory::filled(n, T::zeroed(), &format!("{what} records")).map_err(oom)?;
@@ -82,6 +107,13 @@ pub fn read_records<T: Pod>(path: &Path, what: &str) -> Result<Vec<T>, RecordFil
     // A regular file is read straight into its records (one copy in
     // memory, reserved fallibly: the file's size decides it).
     let len = usize::try_from(meta.len()).unwrap_or(usize::MAX);
+    let mut start = Vec::with_capacity(8);
+    (&mut file)
+        .take(8)
+        .read_to_end(&mut start)
+        .and_then(|_| file.rewind())
+        .map_err(|e| err(format!("cannot read: {e}")))?;
+    not_a_blob(&start)?;
     let n = whole(len)?;
     let mut out = crate::memory::filled(n, T::zeroed(), &format!("{what} records")).map_err(oom)?;
     file.read_exact(bytemuck::cast_slice_mut::<T, u8>(&mut out))

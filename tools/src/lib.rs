@@ -28,5 +28,6 @@ pub mod render;
 pub mod rng;
 pub mod stats;
 pub mod teapot;
+pub mod threads;
 pub mod trace;
 pub mod winding;

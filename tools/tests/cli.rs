@@ -1753,3 +1753,95 @@ fn distance_on_a_scene_names_the_instance() {
     assert!(stderr(&o).contains("--signed on a scene"), "{}", stderr(&o));
     assert!(!Path::new(&refused).exists());
 }
+
+/// What a new user trips on, each refused by name before any work: a
+/// camera with no direction, a typo of a billion timed passes, a
+/// generated scene's name misspelt, a tree blob given where its point
+/// file goes, a GLB whose header's length is shorter than the header.
+#[test]
+fn a_new_users_slips_are_named() {
+    let dir = folder("slips");
+    let obj = write(&dir.join("q.obj"), QUAD_OBJ);
+    let png = dir.join("q.png").display().to_string();
+    let refused = |args: &[&str], want: &str| {
+        let o = kdray(args);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(want), "{args:?}: {}", stderr(&o));
+    };
+    // The eye on the target: no direction to look (the old picture kept).
+    std::fs::write(&png, b"the old picture").unwrap();
+    refused(
+        &[
+            "render", &obj, "-o", &png, "--eye", "0,0,0", "--target", "0,0,0",
+        ],
+        "--eye [0, 0, 0] and --target [0, 0, 0] are the same point",
+    );
+    refused(
+        &["render", &obj, "-o", &png, "--eye", "0.5,0.5,0.5"],
+        "(--target defaults to the scene's centre)",
+    );
+    assert_eq!(std::fs::read(&png).unwrap(), b"the old picture");
+    let rays = dir.join("q.rays").display().to_string();
+    refused(
+        &[
+            "rays", &obj, "-o", &rays, "--eye", "1,1,1", "--target", "1,1,1",
+        ],
+        "are the same point",
+    );
+    // Endless timing passes, and none.
+    let tree = dir.join("q.kdt").display().to_string();
+    assert!(kdray(&["build", &obj, "-o", &tree]).status.success());
+    write(
+        &dir.join("q.rays"),
+        &ray_bytes(&[[0.2, 0.3, -1.0, 0.0, 0.0, 0.0, 1.0, f32::INFINITY]]),
+    );
+    let hits = dir.join("q.hits").display().to_string();
+    refused(
+        &["trace", &tree, &rays, "-o", &hits, "--repeat", "1000000000"],
+        "--repeat 1000000000 is more than the 1000 timed passes",
+    );
+    refused(
+        &["bench", &obj, "--repeat", "0"],
+        "--repeat must be at least 1",
+    );
+    let pts = write(&dir.join("p.pts"), &[0u8; 24]);
+    let knn = dir.join("p.knn").display().to_string();
+    refused(
+        &["knn", &pts, &pts, "-k", "1", "-o", &knn, "--reps", "5000"],
+        "--reps 5000 is more than the 1000 timed passes",
+    );
+    // A generated scene's name misspelt is neither a file nor a scene.
+    refused(
+        &["bench", "stadum", "--rays", "16"],
+        "stadum: no such file, and not a generated scene (stadium, teapot-stadium:MESH, needles)",
+    );
+    // A point tree blob where its points go: named as a blob, whatever its size.
+    let blob = dir.join("p.kdt").display().to_string();
+    assert!(kdray(&["build-points", &pts, "-o", &blob]).status.success());
+    refused(
+        &["knn", &blob, &pts, "-k", "1", "-o", &knn],
+        "p.kdt: this is a kdray tree blob, not a file of 3-D f32 point records",
+    );
+    refused(
+        &["trace", &tree, &tree, "-o", &hits],
+        "q.kdt: this is a kdray tree blob, not a file of ray records",
+    );
+    // A device that never ends is refused, not read until memory runs out.
+    if Path::new("/dev/zero").exists() {
+        refused(
+            &["trace", &tree, "/dev/zero", "-o", &hits],
+            "/dev/zero: is a character device (such as /dev/zero or a terminal), not a file of ray records",
+        );
+    }
+    // A GLB header whose length is shorter than the header (inside the
+    // gltf crate, a subtraction that panicked in debug builds).
+    let mut glb = b"glTF".to_vec();
+    glb.extend(2u32.to_le_bytes());
+    glb.extend(4u32.to_le_bytes());
+    glb.extend([0u8; 20]);
+    let glb = write(&dir.join("short.glb"), &glb);
+    refused(
+        &["build", &glb, "-o", &tree],
+        "the GLB header's length (byte 8) is 4 bytes",
+    );
+}

@@ -354,10 +354,54 @@ fn gltf_errors_name_the_place() {
     );
     let e = error("cycle.gltf", json.as_bytes());
     assert!(e.contains("node 0 appears twice"), "{e}");
-    // A truncated GLB.
+    // A truncated GLB: the length its header gives and the file's.
     let glb = glb(&gltf_json(None, bin.len(), pos_len), &bin);
-    let e = error("cut.glb", &glb[..glb.len() - 20]);
-    assert!(e.contains("malformed glTF") || e.contains("buffer"), "{e}");
+    let cut = glb.len() - 20;
+    let e = error("cut.glb", &glb[..cut]);
+    assert!(
+        e.contains(&format!(
+            "truncated GLB: its header (byte 8) gives {} bytes, the file has {cut}",
+            glb.len()
+        )),
+        "{e}"
+    );
+    // Hostile GLB headers: a length under the header's own (a debug
+    // build's panic inside the gltf crate), a JSON chunk past the end, a
+    // file shorter than a header, another version.
+    let with_word = |at: usize, v: u32| {
+        let mut g = glb.clone();
+        g[at..at + 4].copy_from_slice(&v.to_le_bytes());
+        g
+    };
+    for (name, bytes, want) in [
+        (
+            "short-length.glb",
+            with_word(8, 4),
+            "the GLB header's length (byte 8) is 4 bytes".to_string(),
+        ),
+        (
+            "long-json.glb",
+            with_word(12, 1 << 30),
+            format!(
+                "JSON chunk (length at byte 12) gives {} bytes, past the {}",
+                1 << 30,
+                glb.len()
+            ),
+        ),
+        (
+            "stub.glb",
+            glb[..7].to_vec(),
+            "truncated GLB: 7 bytes, less than its 12-byte header".to_string(),
+        ),
+        (
+            "v1.glb",
+            with_word(4, 1),
+            "GLB version 1 (byte 4)".to_string(),
+        ),
+    ] {
+        let e = error(name, &bytes);
+        assert!(e.contains(&want), "{name}: {e}");
+    }
 }
 
 #[test]

@@ -205,13 +205,11 @@ pub(crate) struct Sections<'a> {
 }
 
 impl<'a> Sections<'a> {
-    /// Checks alignment, magic, endianness, kind and version; returns the
-    /// header and a reader positioned after it. O(1).
+    /// Checks length, alignment, magic, endianness, kind and version;
+    /// returns the header and a reader positioned after it. O(1).
     pub(crate) fn open(bytes: &'a [u8], kind: u32) -> Result<(&'a Header, Self), BlobError> {
-        let offset = bytes.as_ptr() as usize % 4;
-        if offset != 0 {
-            return Err(BlobError::Misaligned { offset });
-        }
+        // Length before alignment: an empty slice's address is a dangling
+        // 1, and "truncated, has 0 bytes" is what went wrong.
         let Some(head) = bytes.get(..HEADER_LEN) else {
             return Err(BlobError::Truncated {
                 what: "header",
@@ -219,6 +217,10 @@ impl<'a> Sections<'a> {
                 have: bytes.len(),
             });
         };
+        let offset = bytes.as_ptr() as usize % 4;
+        if offset != 0 {
+            return Err(BlobError::Misaligned { offset });
+        }
         // Alignment (4) and length (64) were checked above, so this cannot
         // fail; map the impossible error rather than unwrap.
         let header: &Header =

@@ -144,12 +144,14 @@ impl<'a, const D: usize, S: Scalar> PointTreeN<'a, D, S> {
     /// checksum covers). The order of the reads is the layout's.
     fn sections(bytes: &'a [u8]) -> Result<(&'a Header, Self, &'a [u8]), BlobError> {
         let () = Self::DIMENSION_IS_POSITIVE;
+        // The header's length and 4-byte alignment first, then the
+        // scalar's wider alignment.
+        let (header, mut s) = Sections::open(bytes, KIND_POINTS)?;
         let align = core::mem::align_of::<S>();
         let offset = bytes.as_ptr() as usize % align;
         if align > 4 && offset != 0 {
             return Err(BlobError::MisalignedScalar { align, offset });
         }
-        let (header, mut s) = Sections::open(bytes, KIND_POINTS)?;
         let [shape_name, nodes_name, splits_name, points_name, bounds_name, indices_name] =
             SECTIONS;
         let shape = s.take::<[u32; 2]>(shape_name, 1)?;

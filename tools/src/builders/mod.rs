@@ -107,6 +107,44 @@ impl Default for BuildParams {
 }
 
 impl BuildParams {
+    /// Refuses what no build can use: a traversal or intersection cost
+    /// that is not a positive number, an empty bonus outside [0, 1), a
+    /// depth limit past [`MAX_DEPTH`] (the deepest tree the kernel's
+    /// traversal stack holds) and more than
+    /// [`crate::threads::MAX_THREADS`] threads. `name` spells a field
+    /// (`"max_depth"`) as the caller's user does (`--max-depth`).
+    ///
+    /// # Errors
+    /// The first field at fault, named, with its value.
+    pub fn check(&self, name: impl Fn(&str) -> String) -> Result<(), String> {
+        for (field, v) in [
+            ("traversal_cost", self.traversal_cost),
+            ("intersection_cost", self.intersection_cost),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!(
+                    "{} must be a positive number, not {v}",
+                    name(field)
+                ));
+            }
+        }
+        if !(0.0..1.0).contains(&self.empty_bonus) {
+            return Err(format!(
+                "{} must be in [0, 1), not {}",
+                name("empty_bonus"),
+                self.empty_bonus
+            ));
+        }
+        if let Some(d) = self.max_depth.filter(|&d| d > MAX_DEPTH) {
+            return Err(format!(
+                "{} {d} is more than {MAX_DEPTH}, the deepest tree the kernel's traversal stack holds",
+                name("max_depth")
+            ));
+        }
+        self.threads
+            .map_or(Ok(()), |n| crate::threads::check_count(&name("threads"), n))
+    }
+
     /// The depth limit for `n` triangles.
     #[must_use]
     pub fn depth_limit(&self, n: usize) -> u32 {

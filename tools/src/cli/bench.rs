@@ -23,7 +23,8 @@ use std::time::Instant;
 /// Arguments of `kdray bench`.
 #[derive(clap::Args, Debug)]
 pub(crate) struct Args {
-    /// Scenes: OBJ paths, `stadium`, `teapot-stadium:MESH` or `needles`.
+    /// Scenes: mesh paths (OBJ, PLY, glTF), `stadium`, `teapot-stadium:MESH`
+    /// or `needles`.
     #[arg(required = true)]
     scenes: Vec<String>,
     /// Builders to run (comma-separated; default: all of them).
@@ -55,6 +56,12 @@ fn scene(
     if let Some(path) = spec.strip_prefix("teapot-stadium:") {
         let m = mesh_args.load(Path::new(path))?;
         return Ok((format!("{}-in-stadium", file_stem(path)), in_stadium(&m)));
+    }
+    if !Path::new(spec).exists() {
+        return Err(format!(
+            "{spec}: no such file, and not a generated scene (stadium, teapot-stadium:MESH, needles)"
+        )
+        .into());
     }
     let triangles = mesh_args.load(Path::new(spec))?;
     let focus = bounds_of(&triangles);
@@ -96,6 +103,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
             .collect::<Result<Vec<_>, _>>()?
     };
     check_threads(a.threads)?;
+    super::check_repeat("--repeat", a.repeat as u64)?;
     if a.rays as u64 > MAX_PIXELS {
         return Err(format!("--rays {} is more than {MAX_PIXELS}", a.rays).into());
     }
@@ -122,7 +130,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         let random = random_rays(&s.focus, a.rays, 7);
         for &kind in &kinds {
             let (mut best_ms, mut built, mut peak) = (f64::INFINITY, None, 0);
-            for _ in 0..a.repeat.max(1) {
+            for _ in 0..a.repeat {
                 let monitor = BuildMonitor::new();
                 let t = Instant::now();
                 let b = build_monitored(tris, kind, &params, &monitor)?;

@@ -57,13 +57,6 @@ pub(crate) fn run(a: &Args) -> CmdResult {
     super::check_apart_from_mesh(&a.output, &a.mesh)?;
     let kind = BuilderKind::parse(&a.builder)?;
     check_threads(a.threads)?;
-    if let Some(d) = a.max_depth.filter(|&d| d > kdray_kernel::MAX_DEPTH) {
-        return Err(format!(
-            "--max-depth {d} is more than {}, the deepest tree the kernel's traversal stack holds",
-            kdray_kernel::MAX_DEPTH
-        )
-        .into());
-    }
     let d = BuildParams::default();
     let params = BuildParams {
         threads: a.threads,
@@ -73,21 +66,7 @@ pub(crate) fn run(a: &Args) -> CmdResult {
         max_depth: a.max_depth.or(d.max_depth),
         ..d
     };
-    for (name, v) in [
-        ("--traversal-cost", params.traversal_cost),
-        ("--intersection-cost", params.intersection_cost),
-    ] {
-        if !(v.is_finite() && v > 0.0) {
-            return Err(format!("{name} must be a positive number, not {v}").into());
-        }
-    }
-    if !(0.0..1.0).contains(&params.empty_bonus) {
-        return Err(format!(
-            "--empty-bonus must be in [0, 1), not {}",
-            params.empty_bonus
-        )
-        .into());
-    }
+    params.check(|field| format!("--{}", field.replace('_', "-")))?;
     if a.instances {
         return build_instanced(a, kind, &params);
     }

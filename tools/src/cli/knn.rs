@@ -44,9 +44,10 @@ pub(crate) struct Args {
 
 pub(crate) fn run(a: &Args) -> CmdResult {
     io::check_output_apart(&a.output, &[&a.points, &a.queries])?;
-    if a.k == 0 || a.reps == 0 || a.leaf_size == Some(0) {
-        return Err("-k, --reps and --leaf-size must be at least 1".into());
+    if a.k == 0 || a.leaf_size == Some(0) {
+        return Err("-k and --leaf-size must be at least 1".into());
     }
+    super::check_repeat("--reps", a.reps as u64)?;
     dispatch(a.shape, a)
 }
 

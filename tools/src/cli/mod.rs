@@ -131,21 +131,31 @@ fn apply_isa_env() -> Result<(), String> {
     kdray_kernel::set_isa(level).map_err(|e| format!("KDRAY_ISA={name}: {e}"))
 }
 
-/// The most worker threads a command starts: past the cores, threads only
-/// add overhead, and each reserves a stack (100,000 of them exhaust the
-/// address space).
-const MAX_THREADS: usize = 1024;
-
-/// Refuses `--threads 0` and counts past [`MAX_THREADS`].
+/// Refuses `--threads 0` and counts past
+/// [`kdray_tools::threads::MAX_THREADS`].
 fn check_threads(threads: Option<usize>) -> Result<(), String> {
     match threads {
         Some(0) => Err("--threads must be at least 1".into()),
-        Some(n) if n > MAX_THREADS => Err(format!(
-            "--threads {n} is more than {MAX_THREADS} (this machine has {} cores)",
-            std::thread::available_parallelism().map_or(1, |n| n.get())
-        )),
-        _ => Ok(()),
+        Some(n) => kdray_tools::threads::check_count("--threads", n),
+        None => Ok(()),
     }
+}
+
+/// The most timed passes a command runs (`--repeat`, `--reps`): more
+/// measure nothing new, and a typo of a billion would run for years.
+const MAX_REPEAT: u64 = 1000;
+
+/// Refuses `name` (`--repeat`, `--reps`) of 0 or past [`MAX_REPEAT`].
+fn check_repeat(name: &str, n: u64) -> Result<(), String> {
+    if n == 0 {
+        return Err(format!("{name} must be at least 1"));
+    }
+    if n > MAX_REPEAT {
+        return Err(format!(
+            "{name} {n} is more than the {MAX_REPEAT} timed passes kdray runs"
+        ));
+    }
+    Ok(())
 }
 
 /// A rayon pool of `threads` workers (all cores when `None`).

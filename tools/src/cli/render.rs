@@ -148,12 +148,27 @@ impl View {
             Some(tree) => Camera::placed(scene, placement, |r| probe_tree(tree, r)),
             None => Camera::framing(scene),
         };
-        Ok(Camera {
+        let camera = Camera {
             eye: self.eye.unwrap_or(framing.eye),
             target: self.target.unwrap_or(framing.target),
             fov_deg: self.fov.unwrap_or(framing.fov_deg),
             ..framing
-        })
+        };
+        // The camera's rays follow target - eye: with none, every pixel
+        // would silently look down -z.
+        if (camera.target - camera.eye).normalize_or_zero() == Vec3::ZERO {
+            return Err(format!(
+                "--eye {} and --target {} are the same point: the camera has no direction to look{}",
+                camera.eye,
+                camera.target,
+                if self.target.is_none() {
+                    " (--target defaults to the scene's centre)"
+                } else {
+                    ""
+                }
+            ));
+        }
+        Ok(camera)
     }
 }
 

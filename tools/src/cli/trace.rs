@@ -74,9 +74,7 @@ fn parse_order(s: &str) -> Result<Order, String> {
 
 pub(crate) fn run(a: &Args) -> CmdResult {
     io::check_output_apart(&a.output, &[&a.tree, &a.rays])?;
-    if a.repeat == 0 {
-        return Err("--repeat must be at least 1".into());
-    }
+    super::check_repeat("--repeat", a.repeat.into())?;
     let pool = thread_pool(a.threads)?;
     let blob = Blob::read(&a.tree).map_err(|e| format!("{}: {e}", a.tree.display()))?;
     match blob.kind() {

@@ -51,6 +51,9 @@ pub fn buffer_files(path: &Path) -> Vec<PathBuf> {
     let Ok(bytes) = std::fs::read(path) else {
         return Vec::new();
     };
+    if check_glb_frame(&bytes).is_err() {
+        return Vec::new();
+    }
     let Ok(g) = gltf::Gltf::from_slice_without_validation(&bytes) else {
         return Vec::new();
     };
@@ -134,6 +137,7 @@ fn walk(
 ) -> Result<(), MeshError> {
     let err = |msg: String| MeshError::new(path, None, msg);
     let bytes = std::fs::read(path).map_err(|e| err(format!("cannot open: {e}")))?;
+    check_glb_frame(&bytes).map_err(err)?;
     // Extensions first: the validating parse calls a file that needs one
     // "malformed", where it is well formed and only unsupported.
     if let Ok(raw) = gltf::Gltf::from_slice_without_validation(&bytes) {
@@ -174,6 +178,54 @@ fn walk(
             on_mesh(node.index(), &mesh, m, &buffers, skipped)?;
         }
         push_reversed(&mut stack, node.children(), m);
+    }
+    Ok(())
+}
+
+/// A binary glTF's header and first chunk header, checked before the
+/// `gltf` crate reads them: it subtracts the header's size from the
+/// length field unchecked (a panic in a debug build for a length under
+/// 12) and calls a file cut short only "could not completely read the
+/// object". A JSON glTF (no `glTF` magic) passes untouched.
+fn check_glb_frame(bytes: &[u8]) -> Result<(), String> {
+    if !bytes.starts_with(b"glTF") {
+        return Ok(());
+    }
+    let word = |at: usize| {
+        bytes
+            .get(at..at + 4)
+            .and_then(|w| <[u8; 4]>::try_from(w).ok())
+            .map(u32::from_le_bytes)
+    };
+    let (Some(version), Some(length)) = (word(4), word(8)) else {
+        return Err(format!(
+            "truncated GLB: {} bytes, less than its 12-byte header",
+            bytes.len()
+        ));
+    };
+    if version != 2 {
+        return Err(format!(
+            "GLB version {version} (byte 4): kdray reads glTF 2.0 files"
+        ));
+    }
+    // u32 to usize never truncates where kdray builds (32 and 64 bits).
+    let length = length as usize;
+    if length < 20 {
+        return Err(format!(
+            "the GLB header's length (byte 8) is {length} bytes, less than the 20 of a header and a JSON chunk header"
+        ));
+    }
+    if length > bytes.len() {
+        return Err(format!(
+            "truncated GLB: its header (byte 8) gives {length} bytes, the file has {}",
+            bytes.len()
+        ));
+    }
+    let json = word(12).map_or(usize::MAX, |n| n as usize);
+    if json > length - 20 {
+        return Err(format!(
+            "the GLB's JSON chunk (length at byte 12) gives {json} bytes, past the {length} the header gives the file"
+        ));
     }
     Ok(())
 }

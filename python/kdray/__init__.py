@@ -752,8 +752,14 @@ class KDTree(_Blob):
         d2, idx = self._tree.knn(q, k_run, max_d2, threads)
         d = np.sqrt(d2)
         if kmax > k_run:
-            d = np.concatenate([d, np.full((m, kmax - k_run), np.inf, dtype=d.dtype)], axis=1)
-            idx = np.concatenate([idx, np.full((m, kmax - k_run), self.n, dtype=idx.dtype)], axis=1)
+            try:
+                d = np.concatenate([d, np.full((m, kmax - k_run), np.inf, dtype=d.dtype)], axis=1)
+                idx = np.concatenate([idx, np.full((m, kmax - k_run), self.n, dtype=idx.dtype)], axis=1)
+            except MemoryError:
+                size = m * kmax * (d.dtype.itemsize + idx.dtype.itemsize)
+                raise ValueError(
+                    f"k={kmax}: the answer, {m} x {kmax} distances and indices ({size} bytes), does not fit in memory"
+                ) from None
         if ranks is not None:
             d, idx = d[:, ranks - 1], idx[:, ranks - 1]
             shape = lead + (len(ranks),)

@@ -81,6 +81,7 @@ BAD: list[tuple[str, Callable[[], Any], type[BaseException], str]] = [
     ("k 0", lambda: KD.query(PTS[:2], k=0), ValueError, "k"),
     ("k ranks from 0", lambda: KD.query(PTS[:2], k=[0, 1]), ValueError, "k"),
     ("k huge", lambda: KD.query(PTS[:2000], k=10**12), ValueError, "k"),
+    ("k past memory", lambda: KD.query(PTS[0], k=10**12), ValueError, "k=1000000000000.*does not fit in memory"),
     ("k float", lambda: KD.query(PTS[:2], k=[1.5]), ValueError, "k"),
     ("p 1", lambda: KD.query(PTS[:2], p=1), NotImplementedError, "p=1"),
     ("p inf", lambda: KD.query_ball_point(PTS[:2], 0.1, p=np.inf), NotImplementedError, "p=inf"),

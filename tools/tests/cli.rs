@@ -803,12 +803,23 @@ fn sizes_are_checked() {
     );
 }
 
-/// Mesh problems through the binary: faces of fewer than three corners, an
-/// empty file, a file cut inside its vertices: errors with the line.
+/// Mesh problems through the binary: a vertex past `f32`'s range or NaN,
+/// faces of fewer than three corners, an empty file, a file cut inside its
+/// vertices: errors with the line.
 #[test]
 fn bad_meshes_are_refused_with_the_line() {
     let out = tmp("badmesh.kdt").display().to_string();
-    let cases: [(&str, &[u8], &str); 4] = [
+    let cases: [(&str, &[u8], &str); 6] = [
+        (
+            "huge.obj",
+            b"v 0 0 0\nv 1 0 1e39\nv 0 1 0\nf 1 2 3\n",
+            "huge.obj:2: vertex coordinate 1e39 is not a finite f32",
+        ),
+        (
+            "nan.obj",
+            b"v 0 0 0\nv 1 0 0\n\nv nan 1 0\nf 1 2 3\n",
+            "nan.obj:4: vertex coordinate nan is not a finite f32",
+        ),
         (
             "two.obj",
             b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n",

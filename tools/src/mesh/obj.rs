@@ -54,23 +54,43 @@ impl<R: BufRead> BufRead for LineCounting<R> {
     }
 }
 
-/// Refuses a face (`f` line) of fewer than three corners, which `tobj`
-/// would drop silently, naming its line.
-fn check_faces(path: &Path, text: &[u8]) -> Result<(), MeshError> {
+/// Refuses, naming its line, what `tobj` would take without a word: a face
+/// (`f` line) of fewer than three corners, which it drops, and a vertex
+/// (`v` line) whose position is a number but not a finite `f32` (`1e39`,
+/// `nan`), which it keeps for the mesh check to refuse without a line.
+fn check_lines(path: &Path, text: &[u8]) -> Result<(), MeshError> {
     for (i, line) in text.split(|&b| b == b'\n').enumerate() {
         let mut words = line
             .split(|b| b.is_ascii_whitespace())
             .filter(|w| !w.is_empty());
-        if words.next() != Some(b"f") {
-            continue;
-        }
-        let corners = words.count();
-        if corners < 3 {
-            return Err(MeshError::new(
-                path,
-                Some(i + 1),
-                format!("a face needs at least 3 corners, this one has {corners}"),
-            ));
+        match words.next() {
+            Some(b"f") => {
+                let corners = words.count();
+                if corners < 3 {
+                    return Err(MeshError::new(
+                        path,
+                        Some(i + 1),
+                        format!("a face needs at least 3 corners, this one has {corners}"),
+                    ));
+                }
+            }
+            Some(b"v") => {
+                // A word that is no number at all is tobj's to report.
+                let coordinate = |w: &[u8]| std::str::from_utf8(w).ok()?.parse::<f32>().ok();
+                for w in words.take(3) {
+                    if coordinate(w).is_some_and(|x| !x.is_finite()) {
+                        return Err(MeshError::new(
+                            path,
+                            Some(i + 1),
+                            format!(
+                                "vertex coordinate {} is not a finite f32",
+                                String::from_utf8_lossy(w)
+                            ),
+                        ));
+                    }
+                }
+            }
+            _ => {}
         }
     }
     Ok(())
@@ -81,12 +101,12 @@ fn check_faces(path: &Path, text: &[u8]) -> Result<(), MeshError> {
 ///
 /// # Errors
 /// A [`MeshError`] for a missing or unreadable file, or a malformed line
-/// (with its number): a bad number, a vertex cut short, a face of fewer
-/// than three corners.
+/// (with its number): a bad number, a vertex coordinate beyond `f32`'s
+/// range or NaN, a vertex cut short, a face of fewer than three corners.
 pub fn load_obj(path: &Path) -> Result<Vec<Triangle>, MeshError> {
     let text =
         std::fs::read(path).map_err(|e| MeshError::new(path, None, format!("cannot open: {e}")))?;
-    check_faces(path, &text)?;
+    check_lines(path, &text)?;
     let mut reader = LineCounting {
         inner: text.as_slice(),
         lines: 0,

@@ -27,7 +27,12 @@
 // - per-lane near/far for mixed-sign packets: 0.6-0.8x single rays, because the blends cost more than the lanes share;
 // - selects instead of the near-or-far branch: 15-40% slower, because the select chain is longer than the mispredicts;
 // - a branch-free step (both children's t_split ahead): 14% slower, for the same reason;
-// - pushing only when both children are visited: 3.5% slower (one more branch per node);
+// - pushing only when both children are visited: 3.5% slower (one more branch per node); again at
+//   16 lanes (AVX-512) with the far child read lazily: 1-2% slower (tiles16 ratio to the lean walk);
+// - the node array and above-first bits held in locals before the loop: instructions within 0.2%
+//   (callgrind, 8 lanes), tiles16 within noise, because the leaf's triangle test still takes the
+//   general-purpose registers and the step's stack pointer and node array stay spilled;
+// - the descent as a loop of its own inside the leaf-and-pop loop: the same machine code;
 // - a frustum walk (one scalar interval per packet): 20% slower, because its scalar step costs a lane step;
 // - two packets in lockstep: 5% slower, because two walks' state does not fit the registers;
 // - shared entry points for groups of packets: 2% slower, the shared descent is ~7 of ~30 steps;
@@ -306,14 +311,16 @@ impl<'a> TriangleTree<'a> {
                 let near = lanes & !t_split.lt(lo);
                 let far = lanes & !(near & t_split.gt(hi));
                 // The near child by the single ray's one-shift rule; an
-                // empty child drops its lanes here (`TriangleTree::children`).
-                let Some((near_node, far_node, second)) =
-                    self.children(node, lr.above_first_nibbles)
-                else {
+                // empty near child drops its lanes here. The far child is
+                // read only when the packet goes there now; a far child
+                // that waits is pushed unread and an empty one is skipped
+                // when popped (most steps keep to the near child).
+                let first = node.first_child(lr.above_first_nibbles);
+                let second = node.other_child(first);
+                let Some(&near_node) = self.nodes.get(first) else {
                     return;
                 };
                 let near = if near_node.is_empty_leaf() { 0 } else { near };
-                let far = if far_node.is_empty_leaf() { 0 } else { far };
                 let far_lo = lo.far_lo(t_split, s2);
                 // Push the far child unconditionally and keep it only when
                 // the packet visits both children (the single ray's way:
@@ -327,23 +334,33 @@ impl<'a> TriangleTree<'a> {
                     lo: far_lo,
                     hi,
                 };
-                if near == 0 {
-                    if far != 0 {
-                        (node, lanes, lo) = (far_node, far, far_lo);
+                if near == 0 || (Vis::FAR_FIRST && far != 0) {
+                    let Some(&far_node) = self.nodes.get(second) else {
+                        return;
+                    };
+                    let far = if far_node.is_empty_leaf() { 0 } else { far };
+                    if near == 0 {
+                        if far != 0 {
+                            (node, lanes, lo) = (far_node, far, far_lo);
+                            continue;
+                        }
+                        visit.state()
+                    } else {
+                        if far != 0 {
+                            // Both visited, back to front: the near child waits.
+                            *slot = Pending {
+                                node: first as u32,
+                                lanes: near,
+                                lo,
+                                hi: hi.near_hi(t_split, s2),
+                            };
+                            sp += 1;
+                            (node, lanes, lo) = (far_node, far, far_lo);
+                            continue;
+                        }
+                        (node, lanes, hi) = (near_node, near, hi.near_hi(t_split, s2));
                         continue;
                     }
-                    visit.state()
-                } else if Vis::FAR_FIRST && far != 0 {
-                    // Both visited, back to front: the near child waits.
-                    *slot = Pending {
-                        node: (second ^ 1) as u32,
-                        lanes: near,
-                        lo,
-                        hi: hi.near_hi(t_split, s2),
-                    };
-                    sp += 1;
-                    (node, lanes, lo) = (far_node, far, far_lo);
-                    continue;
                 } else {
                     sp += usize::from(far != 0);
                     (node, lanes, hi) = (near_node, near, hi.near_hi(t_split, s2));
@@ -371,6 +388,10 @@ impl<'a> TriangleTree<'a> {
                     let Some(&n) = self.nodes.get(p.node as usize) else {
                         return;
                     };
+                    // A far child pushed unread may be an empty cell.
+                    if n.is_empty_leaf() {
+                        continue;
+                    }
                     node = n;
                     break;
                 }

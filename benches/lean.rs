@@ -28,7 +28,8 @@
 //! # instructions a ray (one variant, one mesh, few rays):
 //! KDRAY_BENCH_CACHE=/tmp KDRAY_LEAN=lean KDRAY_LEAN_MESH=teapot KDRAY_LEAN_RAYS=16384 valgrind --tool=callgrind \
 //!   --collect-atstart=no --toggle-collect='*trace_rays*' target/release/deps/lean-*
-//! # the same for the packet walks: KDRAY_LEAN_SET=tiles, --toggle-collect='*trace_tiles*'
+//! # the packet walks: KDRAY_LEAN_SET=tiles, --toggle-collect='*trace_tiles*', all the rays
+//! # (KDRAY_LEAN_RAYS cuts an anchor file to the image's top rows, which miss)
 //! ```
 //! `KDRAY_LEAN=lean|tree` runs only that walk, once (`lean warm`, `tree
 //! warm`: its twice-walked run), `KDRAY_LEAN_MESH` only that

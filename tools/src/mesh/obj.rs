@@ -83,7 +83,7 @@ fn check_lines(path: &Path, text: &[u8]) -> Result<(), MeshError> {
                             path,
                             Some(i + 1),
                             format!(
-                                "vertex coordinate {} is not a finite f32",
+                                "non-finite vertex coordinate {} (NaN, or past f32's range)",
                                 String::from_utf8_lossy(w)
                             ),
                         ));

@@ -311,10 +311,9 @@ impl<'a> TriangleTree<'a> {
                 let near = lanes & !t_split.lt(lo);
                 let far = lanes & !(near & t_split.gt(hi));
                 // The near child by the single ray's one-shift rule; an
-                // empty near child drops its lanes here. The far child is
-                // read only when the packet goes there now; a far child
-                // that waits is pushed unread and an empty one is skipped
-                // when popped (most steps keep to the near child).
+                // empty near child drops its lanes here. A far child that
+                // waits is pushed unread and, if empty, skipped when popped:
+                // most steps keep to the near child and never read it.
                 let first = node.first_child(lr.above_first_nibbles);
                 let second = node.other_child(first);
                 let Some(&near_node) = self.nodes.get(first) else {
@@ -334,19 +333,15 @@ impl<'a> TriangleTree<'a> {
                     lo: far_lo,
                     hi,
                 };
-                if near == 0 || (Vis::FAR_FIRST && far != 0) {
+                // The far child is read where the packet may go there at
+                // once: no near lanes, or back to front.
+                let far = if near == 0 || (Vis::FAR_FIRST && far != 0) {
                     let Some(&far_node) = self.nodes.get(second) else {
                         return;
                     };
                     let far = if far_node.is_empty_leaf() { 0 } else { far };
-                    if near == 0 {
-                        if far != 0 {
-                            (node, lanes, lo) = (far_node, far, far_lo);
-                            continue;
-                        }
-                        visit.state()
-                    } else {
-                        if far != 0 {
+                    if far != 0 {
+                        if near != 0 {
                             // Both visited, back to front: the near child waits.
                             *slot = Pending {
                                 node: first as u32,
@@ -355,12 +350,16 @@ impl<'a> TriangleTree<'a> {
                                 hi: hi.near_hi(t_split, s2),
                             };
                             sp += 1;
-                            (node, lanes, lo) = (far_node, far, far_lo);
-                            continue;
                         }
-                        (node, lanes, hi) = (near_node, near, hi.near_hi(t_split, s2));
+                        (node, lanes, lo) = (far_node, far, far_lo);
                         continue;
                     }
+                    far
+                } else {
+                    far
+                };
+                if near == 0 {
+                    visit.state()
                 } else {
                     sp += usize::from(far != 0);
                     (node, lanes, hi) = (near_node, near, hi.near_hi(t_split, s2));

@@ -54,46 +54,60 @@ impl<R: BufRead> BufRead for LineCounting<R> {
     }
 }
 
-/// Refuses, naming its line, what `tobj` would take without a word: a face
-/// (`f` line) of fewer than three corners, which it drops, and a vertex
-/// (`v` line) whose position is a number but not a finite `f32` (`1e39`,
-/// `nan`), which it keeps for the mesh check to refuse without a line.
-fn check_lines(path: &Path, text: &[u8]) -> Result<(), MeshError> {
-    for (i, line) in text.split(|&b| b == b'\n').enumerate() {
-        let mut words = line
-            .split(|b| b.is_ascii_whitespace())
-            .filter(|w| !w.is_empty());
-        match words.next() {
-            Some(b"f") => {
-                let corners = words.count();
-                if corners < 3 {
-                    return Err(MeshError::new(
-                        path,
-                        Some(i + 1),
-                        format!("a face needs at least 3 corners, this one has {corners}"),
-                    ));
-                }
-            }
-            Some(b"v") => {
-                // A word that is no number at all is tobj's to report.
-                let coordinate = |w: &[u8]| std::str::from_utf8(w).ok()?.parse::<f32>().ok();
-                for w in words.take(3) {
-                    if coordinate(w).is_some_and(|x| !x.is_finite()) {
-                        return Err(MeshError::new(
-                            path,
-                            Some(i + 1),
-                            format!(
-                                "non-finite vertex coordinate {} (NaN, or past f32's range)",
-                                String::from_utf8_lossy(w)
-                            ),
-                        ));
-                    }
-                }
-            }
-            _ => {}
+/// Refuses a face (`f` line) of fewer than three corners, which `tobj`
+/// would drop silently, naming its line.
+fn check_faces(path: &Path, text: &[u8]) -> Result<(), MeshError> {
+    for (i, mut words) in line_words(text) {
+        if words.next() != Some(b"f") {
+            continue;
+        }
+        let corners = words.count();
+        if corners < 3 {
+            return Err(MeshError::new(
+                path,
+                Some(i + 1),
+                format!("a face needs at least 3 corners, this one has {corners}"),
+            ));
         }
     }
     Ok(())
+}
+
+/// The first vertex (`v` line) whose position is a number but not a
+/// finite `f32` (`1e39`, `nan`), as an error naming its line: `tobj` keeps
+/// such a vertex, and the mesh check would refuse it without a line. Read
+/// only once the loaded positions hold one (a second parse of every
+/// vertex would slow each load).
+fn non_finite_vertex(path: &Path, text: &[u8]) -> Option<MeshError> {
+    // A word that is no number at all is tobj's to report.
+    let coordinate = |w: &[u8]| std::str::from_utf8(w).ok()?.parse::<f32>().ok();
+    line_words(text).find_map(|(i, mut words)| {
+        if words.next() != Some(b"v") {
+            return None;
+        }
+        let w = words
+            .take(3)
+            .find(|&w| coordinate(w).is_some_and(|x| !x.is_finite()))?;
+        Some(MeshError::new(
+            path,
+            Some(i + 1),
+            format!(
+                "non-finite vertex coordinate {} (NaN, or past f32's range)",
+                String::from_utf8_lossy(w)
+            ),
+        ))
+    })
+}
+
+/// Each line's index and its whitespace-separated words.
+fn line_words(text: &[u8]) -> impl Iterator<Item = (usize, impl Iterator<Item = &[u8]>)> {
+    text.split(|&b| b == b'\n').enumerate().map(|(i, line)| {
+        (
+            i,
+            line.split(|b| b.is_ascii_whitespace())
+                .filter(|w| !w.is_empty()),
+        )
+    })
 }
 
 /// Loads the triangles of an OBJ file: every face of every object, in file
@@ -106,7 +120,7 @@ fn check_lines(path: &Path, text: &[u8]) -> Result<(), MeshError> {
 pub fn load_obj(path: &Path) -> Result<Vec<Triangle>, MeshError> {
     let text =
         std::fs::read(path).map_err(|e| MeshError::new(path, None, format!("cannot open: {e}")))?;
-    check_lines(path, &text)?;
+    check_faces(path, &text)?;
     let mut reader = LineCounting {
         inner: text.as_slice(),
         lines: 0,
@@ -128,6 +142,12 @@ pub fn load_obj(path: &Path) -> Result<Vec<Triangle>, MeshError> {
                 )
             },
         )?;
+    let mut positions = models.iter().flat_map(|m| &m.mesh.positions);
+    if positions.any(|x| !x.is_finite()) {
+        if let Some(e) = non_finite_vertex(path, &text) {
+            return Err(e);
+        }
+    }
     let mut tris = Vec::new();
     for model in &models {
         let m = &model.mesh;

@@ -90,6 +90,18 @@ fn moller_trumbore(tri: &Triangle, o: [f32; 3], d: [f32; 3], tmin: f32, tmax: f3
     (t > tmin && t < tmax).then_some(t)
 }
 
+/// A leaf's primitives: its one (`one`, the leaf's word 0) or its run in
+/// the index array (the node's format, `docs/formats.md`).
+#[inline(always)]
+fn leaf_run<'a>(node: Node, prims: &'a [u32], one: &'a [u32; 1]) -> &'a [u32] {
+    let count = node.upper() as usize;
+    if count == 1 {
+        one
+    } else {
+        &prims[node.word0() as usize..][..count]
+    }
+}
+
 /// The lecture's walk: `(t, triangle)` of the closest hit, `u32::MAX` for none.
 #[inline(always)]
 fn lean_closest(tree: &TriangleTree, ray: &Ray, stack: &mut [(u32, f32, f32); 64]) -> (f32, u32) {
@@ -138,14 +150,8 @@ fn lean_closest(tree: &TriangleTree, ray: &Ray, stack: &mut [(u32, f32, f32); 64
                 continue;
             }
         } else {
-            let count = node.upper() as usize;
             let one = [node.word0()];
-            let run = if count == 1 {
-                &one[..]
-            } else {
-                &prims[node.word0() as usize..][..count]
-            };
-            for &p in run {
+            for &p in leaf_run(node, prims, &one) {
                 if let Some(t) = moller_trumbore(&tris[p as usize], o, d, ray.tmin, best.0) {
                     best = (t, p);
                 }

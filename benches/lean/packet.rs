@@ -10,7 +10,7 @@
 //! share a near child: their lanes take the single lean walk.
 
 use super::lanes::{Lanes, Ymm, Zmm};
-use super::lean_closest;
+use super::{leaf_run, lean_closest};
 use kdray::kernel::{Ray, Triangle, TriangleTree};
 use std::hint::black_box;
 
@@ -182,14 +182,8 @@ fn lean_packet<V: Lanes<N>, const N: usize>(
                 continue;
             }
         } else {
-            let count = node.upper() as usize;
             let one = [node.word0()];
-            let run = if count == 1 {
-                &one[..]
-            } else {
-                &prims[node.word0() as usize..][..count]
-            };
-            for &p in run {
+            for &p in leaf_run(node, prims, &one) {
                 moller_trumbore_lanes(&tris[p as usize], p, &org, &dir, tmin, lanes, &mut best);
             }
             // A lane whose best hit lies in this cell is done.

@@ -610,6 +610,14 @@ class Scene(_RayQueries):
 # --- points ----------------------------------------------------------------
 
 
+def _physical_memory() -> int:
+    """This machine's memory in bytes, or 2**62 where the system does not say."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):
+        return 2**62
+
+
 class KDTree(_Blob):
     """A point k-d tree with ``scipy.spatial.KDTree``'s ``query`` and ``query_ball_point``.
 
@@ -740,6 +748,13 @@ class KDTree(_Blob):
         m = q.shape[0]
         if m * kmax > 2**40:
             raise ValueError(f"k={kmax}: {m} queries x {kmax} neighbours is too many to return")
+        # Refused before any work, not left to the allocation: where memory
+        # is overcommitted, filling an answer past it kills the process.
+        size = m * kmax * (self.dtype.itemsize + 8)
+        if size > _physical_memory():
+            raise ValueError(
+                f"k={kmax}: the answer, {m} x {kmax} distances and indices ({size} bytes), does not fit in memory"
+            )
         dt = self.dtype.type
         if ub == np.inf:
             max_d2 = np.inf
@@ -752,14 +767,8 @@ class KDTree(_Blob):
         d2, idx = self._tree.knn(q, k_run, max_d2, threads)
         d = np.sqrt(d2)
         if kmax > k_run:
-            try:
-                d = np.concatenate([d, np.full((m, kmax - k_run), np.inf, dtype=d.dtype)], axis=1)
-                idx = np.concatenate([idx, np.full((m, kmax - k_run), self.n, dtype=idx.dtype)], axis=1)
-            except MemoryError:
-                size = m * kmax * (d.dtype.itemsize + idx.dtype.itemsize)
-                raise ValueError(
-                    f"k={kmax}: the answer, {m} x {kmax} distances and indices ({size} bytes), does not fit in memory"
-                ) from None
+            d = np.concatenate([d, np.full((m, kmax - k_run), np.inf, dtype=d.dtype)], axis=1)
+            idx = np.concatenate([idx, np.full((m, kmax - k_run), self.n, dtype=idx.dtype)], axis=1)
         if ranks is not None:
             d, idx = d[:, ranks - 1], idx[:, ranks - 1]
             shape = lead + (len(ranks),)
